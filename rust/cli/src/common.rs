@@ -1,0 +1,1 @@
+//! Shared glue of the subcommands: loading sites and logs from files.

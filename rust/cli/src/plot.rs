@@ -1,0 +1,1 @@
+//! Plots: tracks over the floor plan and error CDFs (PNG).

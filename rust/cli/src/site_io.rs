@@ -1,0 +1,1 @@
+//! Loading site files (site.json + plan PNGs) from disk.

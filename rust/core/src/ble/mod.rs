@@ -1,0 +1,15 @@
+//! ble (being implemented).
+
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the ble subsystem; every field documented with unit and default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct BleConfig {}
+
+impl BleConfig {
+    /// Checks every field's range; errors name the field.
+    pub fn validate(&self) -> crate::Result<()> {
+        Ok(())
+    }
+}

@@ -1,0 +1,78 @@
+//! The one config object an engine is built from (JSON through JNI and the CLI).
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Result, ble::BleConfig, fusion::FusionConfig, pdr::PdrConfig};
+
+/// Periods of the two tasks.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TaskConfig {
+    /// T_gml: period of the BLE task, ms. Default 1000.
+    pub gml_period_ms: u32,
+    /// T_fusion: period of the fusion task, ms. Default 200.
+    pub fusion_period_ms: u32,
+}
+
+impl Default for TaskConfig {
+    fn default() -> Self {
+        TaskConfig {
+            gml_period_ms: 1000,
+            fusion_period_ms: 200,
+        }
+    }
+}
+
+/// Everything an engine needs besides the site.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EngineConfig {
+    /// Seed of every RNG the engine owns.
+    pub seed: u64,
+    pub tasks: TaskConfig,
+    pub pdr: PdrConfig,
+    pub ble: BleConfig,
+    pub fusion: FusionConfig,
+}
+
+impl Default for EngineConfig {
+    fn default() -> Self {
+        EngineConfig {
+            seed: 1,
+            tasks: TaskConfig::default(),
+            pdr: PdrConfig::default(),
+            ble: BleConfig::default(),
+            fusion: FusionConfig::default(),
+        }
+    }
+}
+
+impl EngineConfig {
+    /// Parses a JSON config (missing fields take their defaults, unknown ones are errors).
+    pub fn from_json(text: &str) -> Result<Self> {
+        let cfg: EngineConfig = serde_json::from_str(text).map_err(|e| {
+            crate::Error::config(
+                format!("(line {}, column {})", e.line(), e.column()),
+                e.to_string(),
+            )
+        })?;
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Checks every field's range.
+    pub fn validate(&self) -> Result<()> {
+        if self.tasks.gml_period_ms == 0 {
+            return Err(crate::Error::config("tasks.gml_period_ms", "must be > 0"));
+        }
+        if self.tasks.fusion_period_ms == 0 {
+            return Err(crate::Error::config(
+                "tasks.fusion_period_ms",
+                "must be > 0",
+            ));
+        }
+        self.pdr.validate()?;
+        self.ble.validate()?;
+        self.fusion.validate()
+    }
+}

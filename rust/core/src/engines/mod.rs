@@ -1,0 +1,1 @@
+//! The engines, one module each (see `engine::factory` for the names).

@@ -1,0 +1,43 @@
+//! Typed errors of the core. Messages name the file, field or value at fault.
+
+use thiserror::Error;
+
+/// Every fallible operation of the core returns this error.
+#[derive(Debug, Error)]
+pub enum Error {
+    /// A site file (site.json) is invalid: `file` names it, `field` the JSON path.
+    #[error("{file}: field `{field}`: {msg}")]
+    Site {
+        file: String,
+        field: String,
+        msg: String,
+    },
+    /// A floor plan image could not be used.
+    #[error("{file}: {msg}")]
+    Plan { file: String, msg: String },
+    /// A configuration value is out of range: `field` is its dotted path.
+    #[error("config field `{field}`: {msg}")]
+    Config { field: String, msg: String },
+    /// An engine name that does not exist.
+    #[error("unknown engine `{0}` (known: {1})")]
+    UnknownEngine(String, String),
+    /// Bad input handed to an engine (e.g. a sensor event with the wrong arity).
+    #[error("invalid input: {0}")]
+    Input(String),
+    /// Calibration could not produce a result.
+    #[error("calibration: {0}")]
+    Calibration(String),
+}
+
+/// Result alias of the core.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Shorthand for a configuration error.
+    pub fn config(field: impl Into<String>, msg: impl Into<String>) -> Self {
+        Error::Config {
+            field: field.into(),
+            msg: msg.into(),
+        }
+    }
+}

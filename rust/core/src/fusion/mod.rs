@@ -1,0 +1,15 @@
+//! fusion (being implemented).
+
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the fusion subsystem; every field documented with unit and default.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct FusionConfig {}
+
+impl FusionConfig {
+    /// Checks every field's range; errors name the field.
+    pub fn validate(&self) -> crate::Result<()> {
+        Ok(())
+    }
+}

@@ -1,0 +1,22 @@
+//! fpbp-core: the positioning core of fpbp.
+//!
+//! Map preprocessing (FP-BP Sec. IV-A), BLE positioning (Sec. III), PDR
+//! (Sec. IV-B), particle-filter fusion and post-position correction
+//! (Sec. IV-C/D), and the engines built from them. The core does no file,
+//! network or platform I/O: callers hand it bytes and events.
+#![forbid(unsafe_code)]
+
+pub mod ble;
+pub mod engine;
+pub mod engines;
+pub mod error;
+pub mod events;
+pub mod fusion;
+pub mod geo;
+pub mod geometry;
+pub mod map;
+pub mod pdr;
+pub mod site;
+
+pub use error::{Error, Result};
+pub use geometry::Vec2;

@@ -138,25 +138,56 @@ fn line(img: &mut RgbaImage, a: Vec2, b: Vec2, c: Rgba<u8>) {
     }
 }
 
-/// Door pixels with a Walkable 4-neighbour, every `every`-th in scan order.
-fn door_edge_samples(map: &FloorMap, every: usize) -> Vec<(usize, usize)> {
+/// One sample per door side: for every 4-connected Door component, its
+/// pixels with a Walkable 4-neighbour are split by the sign of their normal
+/// against the component's first normal, and the middle pixel of each side
+/// (in scan order) is returned with its normal (MCS).
+fn door_normal_samples(map: &FloorMap) -> Vec<(usize, usize, Vec2)> {
+    let (w, h) = (map.width_px(), map.height_px());
+    let mut seen = vec![false; w * h];
     let mut out = Vec::new();
-    let mut n = 0usize;
-    for j in 0..map.height_px() {
-        for i in 0..map.width_px() {
-            let (ii, jj) = (i as isize, j as isize);
-            if map.feature_px(ii, jj) != Feature::Door {
+    for start in 0..w * h {
+        let (si, sj) = ((start % w) as isize, (start / w) as isize);
+        if seen[start] || map.feature_px(si, sj) != Feature::Door {
+            continue;
+        }
+        seen[start] = true;
+        let mut stack = vec![start];
+        let mut sides: [Vec<(usize, usize, Vec2)>; 2] = [Vec::new(), Vec::new()];
+        let mut first: Option<Vec2> = None;
+        while let Some(k) = stack.pop() {
+            let (i, j) = ((k % w) as isize, (k / w) as isize);
+            let mut edge = false;
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (ni, nj) = (i + dx, j + dy);
+                match map.feature_px(ni, nj) {
+                    Feature::Door => {
+                        let m = nj as usize * w + ni as usize;
+                        if !seen[m] {
+                            seen[m] = true;
+                            stack.push(m);
+                        }
+                    }
+                    Feature::Walkable => edge = true,
+                    Feature::Wall => {}
+                }
+            }
+            if !edge {
                 continue;
             }
-            let edge = [(1, 0), (-1, 0), (0, 1), (0, -1)]
-                .iter()
-                .any(|(dx, dy)| map.feature_px(ii + dx, jj + dy) == Feature::Walkable);
-            if edge {
-                if n % every == 0 {
-                    out.push((i, j));
-                }
-                n += 1;
+            let q = Vec2::new(i as f64 + 0.5, j as f64 + 0.5);
+            if let Some(n) = map.normal_at(map.ics_to_mcs(q)) {
+                let f = *first.get_or_insert(n);
+                let side = usize::from(n.dot(&f) < 0.0);
+                sides[side].push((i as usize, j as usize, n));
             }
+        }
+        for mut side in sides {
+            if side.is_empty() {
+                continue;
+            }
+            side.sort_by_key(|&(i, j, _)| (j, i));
+            out.push(side[side.len() / 2]);
         }
     }
     out
@@ -164,7 +195,7 @@ fn door_edge_samples(map: &FloorMap, every: usize) -> Vec<(usize, usize)> {
 
 /// The overlay of floor `floor` at the plan's resolution: rooms in distinct
 /// colours, walls dark grey, doors red, GML grid points as dark dots,
-/// beacons as blue discs, some door normals as green 1 m lines, and
+/// beacons as blue discs, door normals (one per door side) as green 1 m lines, and
 /// `extra_points` (MCS metres, e.g. truth) as magenta dots. An unknown floor
 /// gives a 1 x 1 image.
 pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> RgbaImage {
@@ -191,15 +222,12 @@ pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> Rgb
         let q = map.mcs_to_ics(*g);
         disc(&mut img, q, (0.06 * r).max(0.5), Rgba([60, 60, 90, 255]));
     }
-    // Door normals: about one per door side.
-    let samples = door_edge_samples(map, ((r * 1.5) as usize).max(1));
-    for (i, j) in samples {
+    // Door normals: one per door side, 1 m long.
+    for (i, j, n) in door_normal_samples(map) {
         let q = Vec2::new(i as f64 + 0.5, j as f64 + 0.5);
-        if let Some(n) = map.normal_at(map.ics_to_mcs(q)) {
-            // MCS normal -> ICS direction (flip y), 1 m long.
-            let d = Vec2::new(n.x, -n.y) * r;
-            line(&mut img, q, q + d, Rgba([0, 150, 0, 255]));
-        }
+        // MCS normal -> ICS direction (flip y).
+        let d = Vec2::new(n.x, -n.y) * r;
+        line(&mut img, q, q + d, Rgba([0, 150, 0, 255]));
     }
     for b in site.spec.beacons.iter().filter(|b| b.floor == floor) {
         let q = map.mcs_to_ics(Vec2::new(b.x_m, b.y_m));

@@ -185,7 +185,14 @@ fn nan_backwards_duplicates_and_gaps_are_counted() {
         5000000000 ACC 0 0 9.6\n\
         1000000 GYR 0 0 1\n\
         5000000000 PRS inf\n";
-    let (ev, rep) = read_str(text, &ReadOptions::default()).unwrap();
+    let (ev, rep) = read_str(
+        text,
+        &ReadOptions {
+            reorder_window_s: 3.0,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let ts: Vec<i64> = ev.iter().map(|e| e.t_ns()).collect();
     assert_eq!(ts, vec![0, 150_000_000, 200_000_000, 5_000_000_000]);
     assert_eq!(rep.non_finite_dropped, 2);

@@ -249,3 +249,47 @@ proptest! {
         }
     }
 }
+
+/// The committed demo map (maps/demo), built from its bytes.
+fn demo() -> &'static FloorMap {
+    use std::sync::OnceLock;
+    static MAP: OnceLock<FloorMap> = OnceLock::new();
+    MAP.get_or_init(|| {
+        let png = include_bytes!("../../../../maps/demo/plan.png");
+        let plan = classify_png(png, &crate::site::Legend::default(), "plan.png").unwrap();
+        FloorMap::from_classified_plan(plan, 10.0, 1, 1.0)
+    })
+}
+
+#[test]
+fn demo_map_has_rooms_doors_and_grid() {
+    let m = demo();
+    assert_eq!((m.width_m(), m.height_m()), (64.0, 44.0));
+    assert_eq!(m.build_report().unclassified_count, 0);
+    assert!(m.rooms().len() >= 9, "{}", m.rooms().len());
+    assert!(m.door_pixel_count() > 0);
+    // Both sides of the door in the diagonal wall are different rooms, and the
+    // curved wall separates the corner room.
+    assert_ne!(m.room_of(v(5.0, 10.0)), m.room_of(v(25.0, 10.0)));
+    assert_ne!(m.room_of(v(60.0, 40.0)), m.room_of(v(50.0, 30.0)));
+    assert!(m.grid().len() > 2000);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(512))]
+    /// Rooms are separated by obstacles that a 0.05 m raycast never jumps:
+    /// a ray between two different rooms always hits.
+    #[test]
+    fn demo_rays_between_rooms_always_hit(
+        x1 in 0.0f64..64.0, y1 in 0.0f64..44.0, x2 in 0.0f64..64.0, y2 in 0.0f64..44.0,
+    ) {
+        let m = demo();
+        let (a, b) = (v(x1, y1), v(x2, y2));
+        if let (Some(ra), Some(rb)) = (m.room_of(a), m.room_of(b)) {
+            let hit = m.raycast(a, b, 0.05);
+            if ra != rb {
+                prop_assert!(hit.is_some(), "ray {a:?} -> {b:?} crossed rooms {ra} -> {rb}");
+            }
+        }
+    }
+}

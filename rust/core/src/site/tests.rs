@@ -204,3 +204,19 @@ fn range_errors_name_the_field() {
         {"id":0,"open_area_m":[5,5]},{"id":0,"open_area_m":[5,5]}]}"#;
     assert_eq!(err(text).0, "floors[1].id");
 }
+
+#[test]
+fn target_resolution_downsamples_the_plan() {
+    let text = GOOD.replace(
+        r#""pixels_per_meter": 10.0"#,
+        r#""pixels_per_meter": 10.0, "target_pixels_per_meter": 5.0"#,
+    );
+    let site = load(&text).unwrap();
+    let m = site.floor(0).unwrap();
+    assert_eq!((m.width_px(), m.height_px()), (20, 10));
+    assert_eq!(m.pixels_per_meter(), 5.0);
+    assert_eq!(m.build_report().downsample_factor, 2);
+    assert!((m.width_m() - 4.0).abs() < 1e-9);
+    // The divider (door + wall) still separates the two halves.
+    assert_eq!(m.rooms().len(), 2);
+}

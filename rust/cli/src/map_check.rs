@@ -20,6 +20,11 @@ pub struct Args {
     /// Output folder for overlay.png (created if missing).
     #[arg(long)]
     pub out: PathBuf,
+    /// Logs (native, ILC, IPIN; plain or gzip) whose truth points are drawn
+    /// in magenta on the floor they belong to (truth without a floor goes on
+    /// the first floor).
+    #[arg(long, num_args = 1..)]
+    pub truth: Vec<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -32,6 +37,21 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         site.spec.beacons.len(),
         site.spec.grid_interval_m
     );
+    let mut truth: Vec<(Option<i32>, f64, f64)> = Vec::new();
+    for log in &args.truth {
+        let opts = fpbp_logs::ReadOptions {
+            site_georef: site.spec.georef.map(|g| (g, site.spec.map_from_enu_rad)),
+            ..Default::default()
+        };
+        let (events, _) = fpbp_logs::read_all(log, &opts)
+            .with_context(|| format!("cannot read truth from {}", log.display()))?;
+        let before = truth.len();
+        truth.extend(events.iter().filter_map(|e| match e {
+            fpbp_core::events::LogEvent::Truth(t) => Some((t.floor, t.x_m, t.y_m)),
+            _ => None,
+        }));
+        println!("truth {}: {} point(s)", log.display(), truth.len() - before);
+    }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     for (k, (fs, map)) in site.spec.floors.iter().zip(&site.floors).enumerate() {
@@ -79,7 +99,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             rep.unclassified_count,
             rep.unclassified_fraction * 100.0
         );
-        let img = draw_overlay(&site, fs.id, &[]);
+        let pts: Vec<(f64, f64)> = truth
+            .iter()
+            .filter(|(f, _, _)| f.unwrap_or(site.default_floor()) == fs.id)
+            .map(|&(_, x, y)| (x, y))
+            .collect();
+        if !args.truth.is_empty() {
+            let off = pts
+                .iter()
+                .filter(|&&(x, y)| !map.is_walkable(Vec2::new(x, y)))
+                .count();
+            println!("  truth points      {} ({} off Walkable)", pts.len(), off);
+        }
+        let img = draw_overlay(&site, fs.id, &pts);
         let name = if k == 0 {
             "overlay.png".to_string()
         } else {

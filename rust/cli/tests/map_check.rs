@@ -51,6 +51,36 @@ fn demo_site_checks_and_writes_an_overlay() {
     assert_eq!((img.width(), img.height()), (640, 440));
 }
 
+#[test]
+fn truth_points_are_drawn() {
+    let out = scratch("truth");
+    let log = out.join("walk.txt");
+    // A native log with three truth points along the corridor, one in a wall.
+    std::fs::write(
+        &log,
+        "#fpbp-log 1\n1000000 TRUTH 5.0 20.5 0\n2000000 TRUTH 10.0 20.5 -\n3000000 TRUTH 0.05 20.5 0\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_fpbp"))
+        .args(["map", "check"])
+        .arg(repo().join("maps/demo/site.json"))
+        .arg("--out")
+        .arg(&out)
+        .arg("--truth")
+        .arg(&log)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        stdout.contains("truth points      3 (1 off Walkable)"),
+        "{stdout}"
+    );
+    let img = image::open(out.join("overlay.png")).unwrap().to_rgba8();
+    // MCS (5.0, 20.5) -> ICS (50, 235): magenta.
+    assert_eq!(img.get_pixel(50, 235).0, [220, 0, 220, 255]);
+}
+
 /// Writes a one-floor site (plan.png 20 x 10 px at r = 10) with `edit`
 /// applied to the JSON text, runs map check, and returns stderr.
 fn bad_site(name: &str, plan: Option<&[u8]>, edit: impl Fn(String) -> String) -> String {

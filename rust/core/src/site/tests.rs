@@ -220,3 +220,23 @@ fn target_resolution_downsamples_the_plan() {
     // The divider (door + wall) still separates the two halves.
     assert_eq!(m.rooms().len(), 2);
 }
+
+proptest::proptest! {
+    /// Any corruption of a good site file gives Ok or a typed error, never a panic.
+    #[test]
+    fn corrupted_site_json_never_panics(cut in 0usize..600, pos in 0usize..600, byte in 0u8..128) {
+        let mut b = GOOD.as_bytes().to_vec();
+        let pos = pos.min(b.len() - 1);
+        b[pos] = byte;
+        b.truncate(cut.max(1).min(b.len()));
+        let text = String::from_utf8_lossy(&b).into_owned();
+        match load(&text) {
+            Ok(_) => {}
+            Err(Error::Site { file, field, .. }) => {
+                proptest::prop_assert_eq!(file, "site.json");
+                proptest::prop_assert!(!field.is_empty());
+            }
+            Err(e) => proptest::prop_assert!(false, "unexpected error kind {e}"),
+        }
+    }
+}

@@ -1,1 +1,3 @@
 //! The engines, one module each (see `engine::factory` for the names).
+
+pub mod ble_only;

@@ -37,6 +37,9 @@ pub struct BleConfig {
     pub wcentroid: WeightedCentroidConfig,
     /// Beacon calibration from survey logs (`fpbp calibrate`).
     pub calibration: CalibrationConfig,
+    /// NLOS identification (PPSA eqs. 1-10) and its use by the BLE-only
+    /// positioners (`nlos.gml_mode`, default off).
+    pub nlos: super::nlos::NlosConfig,
 }
 
 impl Default for BleConfig {
@@ -54,6 +57,7 @@ impl Default for BleConfig {
             ml: MlConfig::default(),
             wcentroid: WeightedCentroidConfig::default(),
             calibration: CalibrationConfig::default(),
+            nlos: super::nlos::NlosConfig::default(),
         }
     }
 }
@@ -331,6 +335,7 @@ impl BleConfig {
             return Err(Error::config("ble.ml.max_iterations", "must be >= 1"));
         }
         non_negative("ble.wcentroid.exponent", self.wcentroid.exponent)?;
+        self.nlos.validate("ble.nlos")?;
         self.calibration.validate()
     }
 }

@@ -19,8 +19,10 @@ pub mod grid;
 pub mod hull;
 pub mod kalman;
 pub mod mean_filter;
+pub mod nlos;
 pub mod pathloss;
 pub mod positioner;
+pub mod proximity;
 pub mod registry;
 pub mod task;
 

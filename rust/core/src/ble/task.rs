@@ -34,6 +34,8 @@ pub struct BleTask {
     mean: MeanFilter,
     grids: BTreeMap<i32, Vec<Vec2>>,
     last: Option<BleFix>,
+    /// NLOS identification, when `ble.nlos.gml_mode` is not `off`.
+    nlos: Option<super::nlos::NlosIdentifier>,
     /// Runs that produced no position.
     pub no_fix: u64,
 }
@@ -65,6 +67,8 @@ impl BleTask {
             mean: MeanFilter::new(cfg.mean_window_n, cfg.mean_reset_s),
             grids,
             last: None,
+            nlos: (cfg.nlos.gml_mode != super::nlos::NlosGmlMode::Off)
+                .then(|| super::nlos::NlosIdentifier::new(&cfg.nlos, cfg.min_distance_m)),
             no_fix: 0,
         }
     }
@@ -105,6 +109,11 @@ impl BleTask {
         }
         let prev = prev.or(same_floor_last.map(|l| l.pos));
         let grid: &[Vec2] = self.grids.get(&floor).map(|g| g.as_slice()).unwrap_or(&[]);
+        // NLOS identification against the previous position (ble.nlos.gml_mode)
+        let beacons = match (&self.nlos, prev) {
+            (Some(id), Some(p)) => id.apply_to_set(&beacons, p).0,
+            _ => beacons,
+        };
         let Some(raw) = self.positioner.locate(&beacons, grid, prev) else {
             self.no_fix += 1;
             return None;

@@ -33,6 +33,10 @@ pub struct EngineConfig {
     pub pdr: PdrConfig,
     pub ble: BleConfig,
     pub fusion: FusionConfig,
+    /// Engine `prox-pf` (proximity-PF paper).
+    pub prox_pf: crate::engines::prox_pf::ProxPfConfig,
+    /// Engine `ppsa` (PPSA paper).
+    pub ppsa: crate::engines::ppsa::PpsaConfig,
 }
 
 impl Default for EngineConfig {
@@ -43,6 +47,8 @@ impl Default for EngineConfig {
             pdr: PdrConfig::default(),
             ble: BleConfig::default(),
             fusion: FusionConfig::default(),
+            prox_pf: Default::default(),
+            ppsa: Default::default(),
         }
     }
 }
@@ -73,6 +79,8 @@ impl EngineConfig {
         }
         self.pdr.validate()?;
         self.ble.validate()?;
+        self.prox_pf.validate()?;
+        self.ppsa.validate()?;
         self.fusion.validate()
     }
 }

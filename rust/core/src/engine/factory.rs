@@ -6,7 +6,16 @@ use super::{Engine, EngineConfig, InitialPosition};
 use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
-pub const ENGINE_NAMES: &[&str] = &["pdr", "gml", "trilat", "frbw", "ml", "wcentroid"];
+pub const ENGINE_NAMES: &[&str] = &[
+    "pdr",
+    "gml",
+    "trilat",
+    "frbw",
+    "ml",
+    "wcentroid",
+    "prox-pf",
+    "ppsa",
+];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
@@ -24,6 +33,12 @@ pub fn build_engine(
     }
     match name {
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
+            site, config, init,
+        )?)),
+        "prox-pf" => Ok(Box::new(crate::engines::prox_pf::ProxPfEngine::new(
+            site, config, init,
+        )?)),
+        "ppsa" => Ok(Box::new(crate::engines::ppsa::PpsaEngine::new(
             site, config, init,
         )?)),
         _ => Err(Error::UnknownEngine(

@@ -2,3 +2,5 @@
 
 pub mod ble_only;
 pub mod pdr;
+pub mod ppsa;
+pub mod prox_pf;

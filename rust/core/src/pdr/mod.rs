@@ -32,7 +32,7 @@ pub struct PdrConfig {
     pub z_th_mps2: f64,
     /// k_th of eq. 29c: minimum time between two steps, seconds. Default 0.3.
     pub min_step_interval_s: f64,
-    /// beta of eq. 31 (s = beta * z_pp^(1/4)), metres / (m/s^2)^(1/4). Default 0.45.
+    /// beta of eq. 31 (s = beta * z_pp^(1/4)), metres / (m/s^2)^(1/4). Default 0.40.
     pub step_length_beta: f64,
     /// Cut-off of the first-order low-pass on the vertical acceleration, Hz;
     /// 0 disables it. Default 3.0.
@@ -65,7 +65,7 @@ impl Default for PdrConfig {
             half_window_s: 0.2,
             z_th_mps2: 0.6,
             min_step_interval_s: 0.3,
-            step_length_beta: 0.45,
+            step_length_beta: 0.40,
             low_pass_cutoff_hz: 3.0,
             gravity_tau_s: 2.0,
             max_gap_s: 0.5,

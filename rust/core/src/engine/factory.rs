@@ -6,7 +6,7 @@ use super::{Engine, EngineConfig, InitialPosition};
 use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
-pub const ENGINE_NAMES: &[&str] = &["gml", "trilat", "frbw", "ml", "wcentroid"];
+pub const ENGINE_NAMES: &[&str] = &["pdr", "gml", "trilat", "frbw", "ml", "wcentroid"];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
@@ -22,8 +22,13 @@ pub fn build_engine(
             kind, site, config, init,
         )));
     }
-    Err(Error::UnknownEngine(
-        name.to_string(),
-        ENGINE_NAMES.join(", "),
-    ))
+    match name {
+        "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
+            site, config, init,
+        )?)),
+        _ => Err(Error::UnknownEngine(
+            name.to_string(),
+            ENGINE_NAMES.join(", "),
+        )),
+    }
 }

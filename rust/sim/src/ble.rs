@@ -123,6 +123,34 @@ fn dropouts(cfg: &BleConfig, duration_s: f64, rng: &mut Pcg64) -> Vec<(f64, f64)
     out
 }
 
+/// Per-beacon burst losses: [start, end) spans in seconds, alternating
+/// exponential good spans (mean bad * (1 - f) / f) and bad spans (mean bad).
+fn burst_losses(cfg: &BleConfig, duration_s: f64, rng: &mut Pcg64) -> Vec<(f64, f64)> {
+    let f = cfg.burst_loss_fraction;
+    let mut out = Vec::new();
+    if f <= 0.0 || cfg.burst_loss_mean_s <= 0.0 {
+        return out;
+    }
+    let good_mean = cfg.burst_loss_mean_s * (1.0 - f) / f;
+    // Start in a random state with the stationary probabilities.
+    let mut t = if chance(rng, f) {
+        0.0
+    } else {
+        exponential(rng, good_mean)
+    };
+    while t < duration_s {
+        let len = exponential(rng, cfg.burst_loss_mean_s);
+        out.push((t, t + len));
+        t += len + exponential(rng, good_mean);
+    }
+    out
+}
+
+fn inside(spans: &[(f64, f64)], t: f64) -> bool {
+    let k = spans.partition_point(|d| d.1 <= t);
+    k < spans.len() && spans[k].0 <= t
+}
+
 /// The scan reports of the whole log, in time order.
 #[allow(clippy::too_many_arguments)]
 pub fn scans(
@@ -135,15 +163,12 @@ pub fn scans(
     rng: &mut Pcg64,
 ) -> Vec<BleObservation> {
     let drops = dropouts(cfg, traj.duration_s, rng);
-    let in_dropout = |t: f64| {
-        let k = drops.partition_point(|d| d.1 <= t);
-        k < drops.len() && drops[k].0 <= t
-    };
     // Scanner duty cycle phase (the scan started at some point before the log).
     let scan_phase = uniform(rng, 0.0, cfg.scan_interval_s);
     let mut out: Vec<(f64, usize, BleObservation)> = Vec::new();
     for (bi, b) in site.spec.beacons.iter().enumerate() {
         let tx_power_dbm = b.id.starts_with("ibeacon:").then(|| b.rssi_1m_dbm.round());
+        let bursts = burst_losses(cfg, traj.duration_s, rng);
         let mut shadow = normal(rng, 0.0, cfg.shadowing_sigma_db);
         let mut last_pos: Option<Vec2> = None;
         let mut t = uniform(rng, 0.0, cfg.advert_interval_s);
@@ -154,7 +179,7 @@ pub fn scans(
             // Draw the reception lot for every advert so the random sequence
             // does not depend on the geometry.
             let heard = chance(rng, cfg.reception_probability);
-            if !in_window || in_dropout(t_adv) {
+            if !in_window || inside(&drops, t_adv) || inside(&bursts, t_adv) {
                 continue;
             }
             let pos = traj.position_at(t_adv);

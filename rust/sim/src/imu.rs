@@ -54,6 +54,20 @@ struct Gait {
     env: f64,
 }
 
+/// 1 / |H(f)| of a first-order low-pass with cut-off `fc_hz` at the step
+/// frequency 1 / `step_s` (1 when `fc_hz` is 0).
+pub fn lowpass_boost_hz(fc_hz: f64, step_s: f64) -> f64 {
+    if fc_hz > 0.0 && step_s > 0.0 {
+        (1.0 + (1.0 / (step_s * fc_hz)).powi(2)).sqrt()
+    } else {
+        1.0
+    }
+}
+
+fn lowpass_boost(traj: &Trajectory, step_s: f64) -> f64 {
+    lowpass_boost_hz(traj.weinberg_lowpass_hz, step_s)
+}
+
 fn gait_at(traj: &Trajectory, t_s: f64) -> Gait {
     let p = traj.phase_at(t_s);
     match p.step {
@@ -66,7 +80,7 @@ fn gait_at(traj: &Trajectory, t_s: f64) -> Gait {
             Gait {
                 tau,
                 k: i as f64,
-                pp: st.accel_pp_mps2,
+                pp: st.accel_pp_mps2 * lowpass_boost(traj, dur),
                 env,
             }
         }
@@ -465,7 +479,8 @@ mod tests {
                     .collect();
                 let pp = w.iter().cloned().fold(f64::MIN, f64::max)
                     - w.iter().cloned().fold(f64::MAX, f64::min);
-                let len = cfg.weinberg_beta * pp.powf(0.25);
+                let boost = lowpass_boost_hz(cfg.weinberg_lowpass_hz, s.t_end_s - s.t_start_s);
+                let len = cfg.weinberg_beta * (pp / boost).powf(0.25);
                 errs.push((len - s.length_m) / s.length_m);
             }
             errs.sort_by(f64::total_cmp);

@@ -104,11 +104,11 @@ pub struct WalkConfig {
     pub goal_clearance_m: f64,
     /// Smallest straight-line distance between consecutive goals, m. Default 4.
     pub min_goal_distance_m: f64,
-    /// Slowest step frequency, Hz. Default 1.6.
+    /// Slowest step frequency, Hz. Default 1.5.
     pub step_freq_min_hz: f64,
     /// Fastest step frequency, Hz. Default 2.1.
     pub step_freq_max_hz: f64,
-    /// Mean step length at the slowest step frequency, m. Default 0.55.
+    /// Mean step length at the slowest step frequency, m. Default 0.56.
     pub step_len_at_min_freq_m: f64,
     /// Mean step length at the fastest step frequency, m. Default 0.74.
     pub step_len_at_max_freq_m: f64,
@@ -140,9 +140,9 @@ impl Default for WalkConfig {
             clearance_m: 0.3,
             goal_clearance_m: 0.6,
             min_goal_distance_m: 4.0,
-            step_freq_min_hz: 1.6,
+            step_freq_min_hz: 1.5,
             step_freq_max_hz: 2.1,
-            step_len_at_min_freq_m: 0.55,
+            step_len_at_min_freq_m: 0.56,
             step_len_at_max_freq_m: 0.74,
             step_len_cv: 0.05,
             step_time_cv: 0.03,
@@ -233,8 +233,14 @@ pub struct ImuConfig {
     /// Standard deviation of the sample timestamp jitter, s. Default 0.0002.
     pub timestamp_jitter_s: f64,
     /// Weinberg coefficient beta: step length = beta * (vertical acceleration
-    /// peak-to-peak)^(1/4). Default 0.48 (the PDR's default; see docs).
+    /// peak-to-peak)^(1/4). Default: the PDR's default
+    /// (`fpbp_core::pdr::PdrConfig::default().step_length_beta`, 0.40).
     pub weinberg_beta: f64,
+    /// Cut-off of the first-order low-pass the PDR applies before measuring the
+    /// peak-to-peak, Hz; the generated profile is boosted by 1/|H(f_step)| so
+    /// that the low-passed peak-to-peak follows Weinberg. 0 disables the boost.
+    /// Default: the PDR's default (`PdrConfig::default().low_pass_cutoff_hz`, 3.0).
+    pub weinberg_lowpass_hz: f64,
     /// Forward (surge) acceleration amplitude as a fraction of the vertical
     /// peak-to-peak. Default 0.25.
     pub surge_ratio: f64,
@@ -298,7 +304,8 @@ impl Default for ImuConfig {
         ImuConfig {
             rate_hz: 50.0,
             timestamp_jitter_s: 0.0002,
-            weinberg_beta: 0.48,
+            weinberg_beta: fpbp_core::pdr::PdrConfig::default().step_length_beta,
+            weinberg_lowpass_hz: fpbp_core::pdr::PdrConfig::default().low_pass_cutoff_hz,
             surge_ratio: 0.25,
             sway_accel_mps2: 0.4,
             accel_noise_mps2: 0.12,
@@ -346,6 +353,7 @@ impl ImuConfig {
         }
         positive("imu.weinberg_beta", self.weinberg_beta)?;
         for (f, v) in [
+            ("imu.weinberg_lowpass_hz", self.weinberg_lowpass_hz),
             ("imu.surge_ratio", self.surge_ratio),
             ("imu.sway_accel_mps2", self.sway_accel_mps2),
             ("imu.accel_noise_mps2", self.accel_noise_mps2),
@@ -416,6 +424,12 @@ pub struct BleConfig {
     /// (one of three advertising channels scanned, collisions, the stack
     /// dropping results). Default 0.35.
     pub reception_probability: f64,
+    /// Fraction of time a given beacon is not heard at all (per-beacon
+    /// burst losses: body shadowing, interference), alternating exponential
+    /// good and bad spans. Default 0.3.
+    pub burst_loss_fraction: f64,
+    /// Mean length of one per-beacon burst loss, s. Default 1.5.
+    pub burst_loss_mean_s: f64,
     /// Probability per second that the scanner stalls (a drop-out). Default 0.02.
     pub dropout_rate_per_s: f64,
     /// Mean drop-out length, s (exponential). Default 2.
@@ -458,6 +472,8 @@ impl Default for BleConfig {
             scan_window_s: 4.096,
             scan_interval_s: 4.096,
             reception_probability: 0.35,
+            burst_loss_fraction: 0.3,
+            burst_loss_mean_s: 1.5,
             dropout_rate_per_s: 0.02,
             dropout_mean_s: 2.0,
             report_delay_s: 0.0,
@@ -497,6 +513,11 @@ impl BleConfig {
             ));
         }
         probability("ble.reception_probability", self.reception_probability)?;
+        probability("ble.burst_loss_fraction", self.burst_loss_fraction)?;
+        if self.burst_loss_fraction >= 1.0 {
+            return Err(Error::config("ble.burst_loss_fraction", "must be < 1"));
+        }
+        non_negative("ble.burst_loss_mean_s", self.burst_loss_mean_s)?;
         non_negative("ble.dropout_rate_per_s", self.dropout_rate_per_s)?;
         non_negative("ble.dropout_mean_s", self.dropout_mean_s)?;
         non_negative("ble.report_delay_s", self.report_delay_s)?;

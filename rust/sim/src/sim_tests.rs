@@ -190,3 +190,34 @@ fn injected_nlos_lowers_rssi_by_rate_times_mean() {
         "mean residual with NLOS rate 0.5: {m}"
     );
 }
+
+#[test]
+fn core_pdr_finds_the_true_steps_and_lengths() {
+    use fpbp_core::pdr::{Pdr, PdrConfig};
+    let site = two_rooms_site();
+    let r = request(120.0, 31);
+    let log = simulate(&site, &r).unwrap();
+    let mut pdr = Pdr::new(&PdrConfig::default(), site.spec.map_from_enu_rad);
+    for e in &log.events {
+        if let LogEvent::Sensor(s) = e {
+            pdr.on_sensor(s);
+        }
+    }
+    let steps = pdr.take_steps();
+    let truth: Vec<_> = log.trajectory.steps_in_log().collect();
+    let rel = (steps.len() as f64 - truth.len() as f64).abs() / truth.len() as f64;
+    assert!(
+        rel < 0.05,
+        "core PDR: {} steps, truth {}",
+        steps.len(),
+        truth.len()
+    );
+    let walked: f64 = truth.iter().map(|s| s.length_m).sum();
+    let pdr_walked: f64 = steps.iter().map(|s| s.length_m).sum();
+    let ratio = pdr_walked / walked;
+    eprintln!("PDR distance / true distance = {ratio}");
+    assert!(
+        (ratio - 1.0).abs() < 0.05,
+        "PDR distance / true distance = {ratio}"
+    );
+}

@@ -27,7 +27,9 @@ pub struct TrueStep {
     pub t_end_s: f64,
     /// Step length, m.
     pub length_m: f64,
-    /// Vertical acceleration peak-to-peak of the step, m/s^2 (Weinberg: length = beta * pp^(1/4)).
+    /// Vertical acceleration peak-to-peak of the step after the PDR's low-pass,
+    /// m/s^2 (Weinberg: length = beta * pp^(1/4)); the raw signal's is larger
+    /// by 1 / |H(f_step)| (see `ImuConfig::weinberg_lowpass_hz`).
     pub accel_pp_mps2: f64,
     /// Index of the step in the walk (0, 1, ...).
     pub index: usize,
@@ -59,6 +61,9 @@ pub struct Trajectory {
     pub steps: Vec<TrueStep>,
     /// Simulated duration, s.
     pub duration_s: f64,
+    /// `ImuConfig::weinberg_lowpass_hz` of the walk (the sensors boost the
+    /// generated peak-to-peak by the inverse low-pass gain).
+    pub weinberg_lowpass_hz: f64,
 }
 
 impl Trajectory {
@@ -295,6 +300,7 @@ pub fn walk(
         phases,
         steps,
         duration_s,
+        weinberg_lowpass_hz: imu.weinberg_lowpass_hz,
     })
 }
 

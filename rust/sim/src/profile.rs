@@ -36,10 +36,10 @@ impl Default for SimProfile {
 pub const PROFILE_NAMES: &[&str] = &["default", "swinging", "ilc-like", "ipin-like"];
 
 impl SimProfile {
-    /// A named profile: `default` (phone held in front, tuned on both real
-    /// datasets), `swinging` (phone in a swinging hand), `ilc-like` (ILC's
-    /// OPPO phone: dense BLE reporting, no barometer drift modelled
-    /// differently), `ipin-like` (IPIN's Samsung phones: sparser BLE reports).
+    /// A named profile: `default` (phone held in front, between the real
+    /// ILC and IPIN logs), `swinging` (phone in a swinging hand), `ilc-like`
+    /// (closer to ILC's phone and walkers), `ipin-like` (closer to IPIN's).
+    /// Figures behind them: docs/sim.md.
     pub fn named(name: &str) -> Result<SimProfile> {
         let mut p = SimProfile::default();
         match name {
@@ -48,13 +48,22 @@ impl SimProfile {
                 p.walk.carry = Carry::Swinging;
             }
             "ilc-like" => {
-                p.ble.advert_interval_s = 0.1;
-                p.ble.reception_probability = 0.5;
-                p.ble.report_delay_s = 0.0;
+                // ILC's OPPO: larger vertical accelerations, faster steps,
+                // same-id repeat p50 0.29 s.
+                p.imu.weinberg_beta *= 0.9;
+                p.walk.step_freq_min_hz = 1.7;
+                p.walk.step_freq_max_hz = 2.1;
+                p.ble.reception_probability = 0.3;
             }
             "ipin-like" => {
-                p.ble.advert_interval_s = 0.1;
-                p.ble.reception_probability = 0.25;
+                // IPIN's Samsungs: slower steps, smaller vertical
+                // accelerations, sparser reports (repeat p50 0.39 s).
+                p.imu.weinberg_beta *= 1.15;
+                p.walk.step_freq_min_hz = 1.4;
+                p.walk.step_freq_max_hz = 1.9;
+                p.walk.step_len_at_min_freq_m = 0.5;
+                p.walk.step_len_at_max_freq_m = 0.7;
+                p.ble.reception_probability = 0.15;
             }
             other => {
                 return Err(Error::config(
@@ -422,13 +431,13 @@ pub struct BleConfig {
     pub scan_interval_s: f64,
     /// Probability that an advert sent inside the scan window is reported
     /// (one of three advertising channels scanned, collisions, the stack
-    /// dropping results). Default 0.35.
+    /// dropping results). Default 0.25.
     pub reception_probability: f64,
     /// Fraction of time a given beacon is not heard at all (per-beacon
     /// burst losses: body shadowing, interference), alternating exponential
-    /// good and bad spans. Default 0.3.
+    /// good and bad spans. Default 0.4.
     pub burst_loss_fraction: f64,
-    /// Mean length of one per-beacon burst loss, s. Default 1.5.
+    /// Mean length of one per-beacon burst loss, s. Default 2.
     pub burst_loss_mean_s: f64,
     /// Probability per second that the scanner stalls (a drop-out). Default 0.02.
     pub dropout_rate_per_s: f64,
@@ -471,9 +480,9 @@ impl Default for BleConfig {
             advert_delay_max_s: 0.01,
             scan_window_s: 4.096,
             scan_interval_s: 4.096,
-            reception_probability: 0.35,
-            burst_loss_fraction: 0.3,
-            burst_loss_mean_s: 1.5,
+            reception_probability: 0.25,
+            burst_loss_fraction: 0.4,
+            burst_loss_mean_s: 2.0,
             dropout_rate_per_s: 0.02,
             dropout_mean_s: 2.0,
             report_delay_s: 0.0,

@@ -390,3 +390,190 @@ fn check_waypoints(
     };
     Ok(c)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fpbp_core::geo::EARTH_RADIUS_M;
+
+    fn tmp(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("fpbp-import-ilc-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    /// Degrees of longitude / latitude per metre at 30 deg N (mid latitude).
+    fn deg(x_m: f64, y_m: f64) -> [f64; 2] {
+        let k = std::f64::consts::PI / 180.0 * EARTH_RADIUS_M;
+        let lat_mid = 30.0 + 20.0 / k / 2.0;
+        [
+            120.0 + x_m / (k * lat_mid.to_radians().cos()),
+            30.0 + y_m / k,
+        ]
+    }
+
+    fn ring(pts: &[(f64, f64)]) -> String {
+        let v: Vec<String> = pts
+            .iter()
+            .map(|&(x, y)| {
+                let d = deg(x, y);
+                format!("[{},{}]", d[0], d[1])
+            })
+            .collect();
+        format!("[{}]", v.join(","))
+    }
+
+    /// A two-polygon GeoJSON: an L-shaped 40 x 20 m outline and one named
+    /// shop (x 10..20, y 10..20) in its corner, fronts to the south and west,
+    /// walls to the north and east (the outline); one trace walking along the
+    /// corridor and into the shop through its front, one leaving it through
+    /// its east wall.
+    #[test]
+    fn imports_a_two_polygon_floor() {
+        let dir = tmp("two").join("F2");
+        std::fs::create_dir_all(dir.join("path_data_files")).unwrap();
+        // L-shaped outline: the notch x 20..40, y 10..20 is outside.
+        let outline = ring(&[
+            (0.0, 0.0),
+            (40.0, 0.0),
+            (40.0, 10.0),
+            (20.0, 10.0),
+            (20.0, 20.0),
+            (0.0, 20.0),
+            (0.0, 0.0),
+        ]);
+        let shop = ring(&[(10.0, 10.0), (20.0, 10.0), (20.0, 20.0), (10.0, 20.0)]);
+        let gj = format!(
+            r#"{{"type":"FeatureCollection","features":[
+              {{"type":"Feature","properties":{{}},"geometry":{{"type":"MultiPolygon","coordinates":[[{outline}]]}}}},
+              {{"type":"Feature","properties":{{"name":"SHOP"}},"geometry":{{"type":"Polygon","coordinates":[{shop}]}}}}]}}"#
+        );
+        std::fs::write(dir.join("geojson_map.json"), gj).unwrap();
+        std::fs::write(
+            dir.join("floor_info.json"),
+            r#"{"map_info":{"height":20.0,"width":40.0}}"#,
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("path_data_files/a.txt"),
+            "1\tTYPE_WAYPOINT\t2.0\t5.0\n2\tTYPE_WAYPOINT\t15.0\t5.0\n3\tTYPE_WAYPOINT\t15.0\t15.0\n",
+        )
+        .unwrap();
+        std::fs::write(
+            dir.join("path_data_files/b.txt"),
+            "1\tTYPE_WAYPOINT\t15.0\t15.0\n2\tTYPE_WAYPOINT\t30.0\t5.0\n",
+        )
+        .unwrap();
+        let out = dir.parent().unwrap().join("site");
+        let rep = import(&Args {
+            floor_dir: dir.clone(),
+            out: out.clone(),
+            pixels_per_meter: 5.0,
+            floor_id: None,
+        })
+        .unwrap();
+        assert_eq!(rep.floor_id, 2, "from the folder name F2");
+        assert_eq!(
+            (rep.width_px, rep.height_px, rep.units, rep.closed_units),
+            (200, 100, 1, 0)
+        );
+        assert!(rep.floor_info_minus_geojson_m[0].abs() < 1e-6);
+        let w = rep.waypoint_check.clone().unwrap();
+        assert_eq!((w.paths, w.waypoints, w.segments), (2, 5, 3));
+        // Into the shop through its front: free; out through its side wall: one crossing.
+        assert_eq!(
+            (
+                w.segments_crossing_wall,
+                w.wall_crossings,
+                w.paths_crossing_wall
+            ),
+            (1, 1, 1)
+        );
+        assert!(
+            (w.in_unit - 0.4).abs() < 1e-9,
+            "2 of 5 waypoints in the shop"
+        );
+        // The plan: shop fronts red, back walls black, outside the outline black.
+        let img = image::open(out.join("plan.png")).unwrap().to_rgb8();
+        let px = |x: f64, y: f64| img.get_pixel((x * 5.0) as u32, ((20.0 - y) * 5.0) as u32).0;
+        assert_eq!(px(15.0, 10.1), [255, 0, 0]);
+        assert_eq!(px(10.1, 15.0), [255, 0, 0]);
+        assert_eq!(px(19.9, 15.0), [0, 0, 0]);
+        assert_eq!(px(15.0, 19.9), [0, 0, 0]);
+        assert_eq!(px(30.0, 15.0), [0, 0, 0]);
+        assert_eq!(px(15.0, 15.0), [255, 255, 255]);
+        assert_eq!(px(30.0, 5.0), [255, 255, 255]);
+        let spec: SiteSpec =
+            serde_json::from_str(&std::fs::read_to_string(out.join("site.json")).unwrap()).unwrap();
+        assert_eq!(spec.floors[0].plan.as_deref(), Some("plan.png"));
+        assert_eq!(spec.floors[0].pixels_per_meter, Some(5.0));
+        assert!(spec.beacons.is_empty() && spec.map_from_enu_rad == 0.0);
+        // An unnamed unit is closed: its front becomes a wall.
+        let gj2 = std::fs::read_to_string(dir.join("geojson_map.json"))
+            .unwrap()
+            .replace("SHOP", "");
+        std::fs::write(dir.join("geojson_map.json"), gj2).unwrap();
+        let rep = import(&Args {
+            floor_dir: dir.clone(),
+            out: out.clone(),
+            pixels_per_meter: 5.0,
+            floor_id: Some(-3),
+        })
+        .unwrap();
+        assert_eq!((rep.floor_id, rep.closed_units), (-3, 1));
+        assert_eq!(rep.waypoint_check.unwrap().wall_crossings, 2);
+        // A floor_info.json that does not match the GeoJSON is refused.
+        std::fs::write(
+            dir.join("floor_info.json"),
+            r#"{"map_info":{"height":30.0,"width":40.0}}"#,
+        )
+        .unwrap();
+        let e = import(&Args {
+            floor_dir: dir.clone(),
+            out,
+            pixels_per_meter: 5.0,
+            floor_id: None,
+        });
+        assert!(format!("{:#}", e.unwrap_err()).contains("not the ILC frame"));
+        std::fs::remove_dir_all(dir.parent().unwrap()).ok();
+    }
+
+    /// The real ILC floors, regenerated from ../shared/datasets: the frame
+    /// agrees with floor_image.png and the waypoints, and waypoint-to-waypoint
+    /// walks rarely cross a wall.
+    #[test]
+    fn imports_the_real_ilc_floors() {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/datasets/ilc");
+        if !data.is_dir() {
+            println!("skipped: ../shared/datasets not found");
+            return;
+        }
+        let out = tmp("real");
+        for (floor, id, paths) in [("site2/F4", 4, 26), ("site1/F1", 1, 106)] {
+            let rep = import(&Args {
+                floor_dir: data.join(floor),
+                out: out.join(floor),
+                pixels_per_meter: DEFAULT_PIXELS_PER_METER,
+                floor_id: None,
+            })
+            .unwrap();
+            assert_eq!(rep.floor_id, id);
+            let ic = rep.image_check.clone().unwrap();
+            assert!(
+                ic.unit_pixels_in_units > 0.99 && ic.unit_pixels_in_units_flipped < 0.5,
+                "{ic:?}"
+            );
+            assert!(ic.transparent_pixels_on_corridor > 0.95, "{ic:?}");
+            let w = rep.waypoint_check.clone().unwrap();
+            assert_eq!(w.paths, paths);
+            assert!(w.on_corridor > 0.95, "{floor}: {w:?}");
+            assert!(
+                w.segments_crossing_wall * 50 <= w.segments,
+                "{floor}: {w:?} (more than 2 %)"
+            );
+            assert!(out.join(floor).join("site.json").is_file());
+        }
+        std::fs::remove_dir_all(&out).ok();
+    }
+}

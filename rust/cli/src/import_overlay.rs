@@ -224,3 +224,44 @@ pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
     )?;
     Ok(rows)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_truth_on_a_small_site() {
+        let dir = std::env::temp_dir().join(format!("fpbp-import-overlay-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        // 20 x 10 px at 1 px/m: a wall column at x = 10 m, a door pixel at y = 5 m.
+        let mut img = image::RgbImage::from_pixel(20, 10, image::Rgb([255, 255, 255]));
+        for v in 0..10 {
+            img.put_pixel(10, v, image::Rgb([0, 0, 0]));
+        }
+        img.put_pixel(10, 4, image::Rgb([250, 5, 5]));
+        img.save(dir.join("p.png")).unwrap();
+        let site = r#"{"format":"fpbp-site","version":1,"name":"t",
+            "floors":[{"id":3,"plan":"p.png","pixels_per_meter":1.0}]}"#;
+        std::fs::write(dir.join("site.json"), site).unwrap();
+        // Through the door (y = 5.5: row 4), then through the wall (y = 8.5), then onto it.
+        std::fs::write(
+            dir.join("w.txt"),
+            "1\tTYPE_WAYPOINT\t5\t5.5\n2\tTYPE_WAYPOINT\t15\t5.5\n3\tTYPE_WAYPOINT\t5\t8.5\n4\tTYPE_WAYPOINT\t10.5\t2\n",
+        )
+        .unwrap();
+        let rows = overlay(&Args {
+            site_dir: dir.clone(),
+            truth: vec![dir.join("w.txt")],
+            out: dir.join("o"),
+        })
+        .unwrap();
+        assert_eq!(rows.len(), 1);
+        let r = &rows[0];
+        assert_eq!((r.floor, r.logs, r.points, r.segments), (3, 1, 4, 3));
+        assert_eq!((r.on_walkable, r.on_door, r.on_wall), (3, 0, 1));
+        assert_eq!(r.segments_crossing_wall, 2);
+        assert!(dir.join("o/overlay_3.png").is_file() && dir.join("o/overlay.json").is_file());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}

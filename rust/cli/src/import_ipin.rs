@@ -893,6 +893,52 @@ mod tests {
             assert!(b.x_m > bb[0] - 10.0 && b.x_m < bb[2] + 10.0, "{b:?}");
             assert!(b.y_m > bb[1] - 10.0 && b.y_m < bb[3] + 10.0, "{b:?}");
         }
+        // The log reader (fpbp_logs) with the site's georeference: every beacon
+        // heard is a site beacon, and the truth lands on walkable pixels of its floor.
+        let spec: SiteSpec =
+            serde_json::from_str(&std::fs::read_to_string(out.join("site/site.json")).unwrap())
+                .unwrap();
+        let opts = fpbp_logs::ReadOptions {
+            site_georef: spec.georef.map(|g| (g, spec.map_from_enu_rad)),
+            ..Default::default()
+        };
+        let log = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/datasets/ipin2023/logs/IPIN2023_T3_TrainingTrial51_repetition02.txt.gz");
+        let (events, _) = fpbp_logs::read_all(&log, &opts).unwrap();
+        let site_ids: Vec<&str> = spec.beacons.iter().map(|b| b.id.as_str()).collect();
+        let grid = Grid::covering(rep.width_m, rep.height_m, 10.0);
+        let (mut heard, mut truth) = (std::collections::BTreeSet::new(), 0);
+        for e in &events {
+            match e {
+                fpbp_core::events::LogEvent::Ble(b) => {
+                    assert!(site_ids.contains(&b.beacon_id.as_str()), "{}", b.beacon_id);
+                    heard.insert(b.beacon_id.clone());
+                }
+                fpbp_core::events::LogEvent::Truth(t) => {
+                    truth += 1;
+                    let f = t.floor.unwrap();
+                    let img = image::open(out.join(format!("site/plan_{f}.png")))
+                        .unwrap()
+                        .to_rgb8();
+                    let map = floor_map(
+                        &grid,
+                        img.pixels()
+                            .map(|p| {
+                                if p.0 == [255, 255, 255] {
+                                    Feature::Walkable
+                                } else {
+                                    Feature::Wall
+                                }
+                            })
+                            .collect(),
+                    );
+                    assert!(map.is_walkable(Vec2::new(t.x_m, t.y_m)), "{t:?}");
+                }
+                _ => {}
+            }
+        }
+        assert_eq!(truth, 16);
+        assert!(heard.len() >= 3, "{heard:?}");
         std::fs::remove_dir_all(&out).ok();
     }
 }

@@ -1,16 +1,19 @@
 //! `fpbp import overlay SITE_DIR --truth LOG... --out DIR`: each floor's plan
-//! with the ground truth of logs drawn on top (ILC waypoints, IPIN POSI
+//! (lightened) with the ground truth of logs drawn on top (green points, blue
+//! walks, orange walks that cross a wall, magenta points on a wall; beacons
+//! as red squares) (ILC waypoints, IPIN POSI
 //! points through the site's georeference), so a person can see that the
 //! truth lies in walkable space; prints where the truth points fall.
 //!
-//! Stand-alone on purpose: it reads site.json and the plan PNGs itself and
-//! classifies plan pixels by the nearest legend colour (the full plan
-//! loader, `Site::build`, lives with the map module).
+//! It reads site.json and the plan PNGs itself and classifies plan pixels by
+//! the nearest legend colour (the full plan loader, `Site::build`, lives with
+//! the map module); truth comes from `fpbp_logs`.
 
 use crate::import_raster::wall_crossings;
-use crate::import_truth::{ilc_waypoints, ipin_posi_and_pressure, list_files};
+use crate::import_truth::list_files;
 use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
+use fpbp_core::events::LogEvent;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::site::{Legend, SiteSpec};
 use serde::Serialize;
@@ -55,33 +58,37 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// Reads one log's truth in the site's MCS.
+/// Reads one log's truth in the site's MCS with the project's log readers
+/// (`fpbp_logs`, the same conversions replay and eval use): IPIN POSI through
+/// the site's georeference, ILC waypoints on the site's first floor.
 fn read_truth(path: &Path, spec: &SiteSpec) -> Result<LogTruth> {
+    let opts = fpbp_logs::ReadOptions {
+        site_georef: spec.georef.map(|g| (g, spec.map_from_enu_rad)),
+        default_floor: spec.floors.first().map(|f| f.id),
+        ..Default::default()
+    };
+    let mut reader = fpbp_logs::open_log(path, &opts)?;
     let mut out = LogTruth::new();
-    let wps = ilc_waypoints(path)?;
-    if !wps.is_empty() {
-        let floor = spec.floors.first().map(|f| f.id).unwrap_or(0);
-        out.insert(floor, wps.iter().map(|w| Vec2::new(w.x_m, w.y_m)).collect());
-        return Ok(out);
-    }
-    let (posi, _) = ipin_posi_and_pressure(path)?;
-    if posi.is_empty() {
-        return Ok(out);
-    }
-    let g = spec
-        .georef
-        .with_context(|| format!("{}: POSI truth needs a georef in the site", path.display()))?;
     // Consecutive points on the same floor form a walk; a floor change
     // starts a new walk (kept apart by a NaN separator).
     let mut last_floor = None;
-    for p in posi {
-        let q = fpbp_core::geo::mcs_from_wgs84(&g, spec.map_from_enu_rad, p.lat_deg, p.lon_deg);
-        let v = out.entry(p.floor).or_default();
-        if last_floor.is_some_and(|f| f != p.floor) && !v.is_empty() {
+    while let Some(e) = reader.try_next()? {
+        let LogEvent::Truth(t) = e else { continue };
+        let floor = t.floor.or(opts.default_floor).unwrap_or(0);
+        let v = out.entry(floor).or_default();
+        if last_floor.is_some_and(|f| f != floor) && !v.is_empty() {
             v.push(Vec2::new(f64::NAN, f64::NAN));
         }
-        v.push(q);
-        last_floor = Some(p.floor);
+        v.push(Vec2::new(t.x_m, t.y_m));
+        last_floor = Some(floor);
+    }
+    let report = reader.report();
+    if report.truth_without_georef > 0 {
+        bail!(
+            "{}: {} lat/lon truth points but the site has no georef",
+            path.display(),
+            report.truth_without_georef
+        );
     }
     Ok(out)
 }
@@ -210,6 +217,22 @@ pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
                             c,
                         );
                     }
+                }
+            }
+        }
+        // Beacons of this floor: red squares with a black rim.
+        for b in spec.beacons.iter().filter(|b| b.floor == fl.id) {
+            let q = map.mcs_to_ics(Vec2::new(b.x_m, b.y_m));
+            for dy in -4i64..=4 {
+                for dx in -4i64..=4 {
+                    let rim = dx.abs() == 4 || dy.abs() == 4;
+                    let c = if rim { [0, 0, 0] } else { [230, 0, 0] };
+                    put(
+                        &mut img,
+                        q.x.floor() as i64 + dx,
+                        q.y.floor() as i64 + dy,
+                        c,
+                    );
                 }
             }
         }

@@ -284,17 +284,18 @@ pub fn floor_heights(logs: &[PosiAndPressure]) -> BTreeMap<i32, (f64, usize)> {
 /// the source block under each target pixel.
 pub fn ink_fraction(img: &image::RgbaImage, grid: &Grid) -> Vec<f64> {
     let (sw, sh) = (img.width() as usize, img.height() as usize);
-    let fx = sw as f64 / grid.width_px as f64;
-    let fy = sh as f64 / grid.height_px as f64;
+    let (gw, gh) = (grid.width_px, grid.height_px);
+    // Target column of each source column, target row of each source row.
+    let col: Vec<usize> = (0..sw).map(|u| (u * gw / sw).min(gw - 1)).collect();
     let mut ink = vec![0u32; grid.len()];
     let mut cnt = vec![0u32; grid.len()];
-    for (u, v, px) in img.enumerate_pixels() {
-        let i = ((u as f64 / fx) as usize).min(grid.width_px - 1);
-        let j = ((v as f64 / fy) as usize).min(grid.height_px - 1);
-        let [r, g, b, a] = px.0;
-        let k = j * grid.width_px + i;
-        cnt[k] += 1;
-        ink[k] += u32::from(a > 128 && r < 200 && g < 200 && b < 200);
+    for (v, row) in img.as_raw().chunks_exact(4 * sw).enumerate() {
+        let base = (v * gh / sh).min(gh - 1) * gw;
+        for (px, &c) in row.chunks_exact(4).zip(&col) {
+            let k = base + c;
+            cnt[k] += 1;
+            ink[k] += u32::from(px[3] > 128 && px[0] < 200 && px[1] < 200 && px[2] < 200);
+        }
     }
     ink.iter()
         .zip(&cnt)
@@ -331,6 +332,8 @@ pub struct FloorReport {
     pub truth_wall: usize,
     /// [xmin, ymin, xmax, ymax] of the truth points, metres.
     pub truth_bbox_m: [f64; 4],
+    /// [xmin, ymin, xmax, ymax] of the walkable pixels of the plan, metres.
+    pub walkable_bbox_m: [f64; 4],
 }
 
 /// One beacon of [`IpinReport`].
@@ -504,6 +507,24 @@ pub fn import(args: &Args) -> Result<IpinReport> {
                 (4.0 * id as f64, 0)
             }
         };
+        let mut wb = [
+            f64::INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+        ];
+        for (k, f) in features.iter().enumerate() {
+            if *f == Feature::Walkable {
+                let (i, j) = ((k % grid.width_px) as f64, (k / grid.width_px) as f64);
+                let (x0, y1) = (i / r, (grid.height_px as f64 - j) / r);
+                wb = [
+                    wb[0].min(x0),
+                    wb[1].min(y1 - 1.0 / r),
+                    wb[2].max(x0 + 1.0 / r),
+                    wb[3].max(y1),
+                ];
+            }
+        }
         let map = floor_map(&grid, features);
         let count = |f: Feature| pts.iter().filter(|p| map.feature(**p) == f).count();
         let mut bbox = [
@@ -531,6 +552,7 @@ pub fn import(args: &Args) -> Result<IpinReport> {
             truth_door: count(Feature::Door),
             truth_wall: count(Feature::Wall),
             truth_bbox_m: bbox,
+            walkable_bbox_m: wb,
         });
         floors.push(FloorSpec {
             id,

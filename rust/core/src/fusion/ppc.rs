@@ -262,19 +262,19 @@ impl PlanQueries for FloorMap {
     }
 
     fn obstacle_normal(&self, p: Vec2) -> Option<Vec2> {
-        local_plan::obstacle_normal(self, p)
+        self.normal_at(p)
+            .or_else(|| principal_axes::obstacle_normal(self, p))
     }
 
     fn room_id(&self, p: Vec2) -> Option<u32> {
-        local_plan::room_of(self, p)
+        self.room_of(p)
     }
 }
 
-/// Stand-ins for the map's normal and room queries, used until
-/// `map::FloorMap` provides them.
-mod local_plan {
+/// Fallback normal where the image gradient vanishes (a one-pixel door in a
+/// one-pixel wall line is symmetric, so its gradient is zero).
+mod principal_axes {
     use super::*;
-
     /// Normal from the principal axes of the obstacle pixels of the same
     /// feature near `p` (radius 3 px): the minor axis is the normal.
     pub fn obstacle_normal(map: &FloorMap, p: Vec2) -> Option<Vec2> {
@@ -312,37 +312,6 @@ mod local_plan {
         // Major axis angle of the 2x2 covariance; the normal is perpendicular.
         let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
         Some(Vec2::new(-theta.sin(), theta.cos()))
-    }
-
-    /// The 4-connected walkable component containing `p`, identified by its
-    /// smallest pixel index (flood fill; fine for small plans).
-    pub fn room_of(map: &FloorMap, p: Vec2) -> Option<u32> {
-        let (i0, j0) = map.pixel_of(p)?;
-        let w = map.width_px();
-        let walk = |i: usize, j: usize| map.feature_px(i as isize, j as isize) == Feature::Walkable;
-        if !walk(i0, j0) {
-            return None;
-        }
-        let mut seen = vec![false; w * map.height_px()];
-        let mut stack = vec![(i0, j0)];
-        seen[j0 * w + i0] = true;
-        let mut min_idx = j0 * w + i0;
-        while let Some((i, j)) = stack.pop() {
-            min_idx = min_idx.min(j * w + i);
-            let nbrs = [
-                (i.wrapping_sub(1), j),
-                (i + 1, j),
-                (i, j.wrapping_sub(1)),
-                (i, j + 1),
-            ];
-            for (a, b) in nbrs {
-                if a < w && b < map.height_px() && !seen[b * w + a] && walk(a, b) {
-                    seen[b * w + a] = true;
-                    stack.push((a, b));
-                }
-            }
-        }
-        u32::try_from(min_idx).ok()
     }
 }
 

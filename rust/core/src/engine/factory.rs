@@ -7,6 +7,8 @@ use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
 pub const ENGINE_NAMES: &[&str] = &[
+    "fpbp",
+    "bp",
     "pdr",
     "gml",
     "trilat",
@@ -32,6 +34,12 @@ pub fn build_engine(
         )));
     }
     match name {
+        "fpbp" | "bp" => Ok(Box::new(crate::engines::fpbp::FpbpEngine::new(
+            site,
+            config,
+            name == "fpbp",
+            init,
+        )?)),
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
             site, config, init,
         )?)),

@@ -1,6 +1,7 @@
 //! The engines, one module each (see `engine::factory` for the names).
 
 pub mod ble_only;
+pub mod fpbp;
 pub mod pdr;
 pub mod ppsa;
 pub mod prox_pf;

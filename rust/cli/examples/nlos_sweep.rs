@@ -1,0 +1,242 @@
+//! The PPSA paper's experiment (Sec. 4.1.2, Figs. 12-13) on simulated logs:
+//! positioning error versus NLOS rate for several engines.
+//!
+//! For each NLOS rate r and seed, `fpbp_sim` simulates a walk on the site
+//! (the `fpbp simulate` code path, profile `default` with `ble.nlos_rate = r`:
+//! each advert gets an extra attenuation N(nlos_mean_db, nlos_sigma_db) >= 0
+//! with probability r). Every engine replays the log from its own start (no
+//! `--init truth`) and is scored at every truth point of the log (the
+//! simulator writes truth at every step and at 10 Hz), as `fpbp eval` does.
+//!
+//! Usage: cargo run --release -p fpbp-cli --example nlos_sweep --
+//!        [--site maps/demo/site.json] [--seconds 120] [--seeds 3]
+//!        [--rates 0,0.2,0.4,0.6,0.8,1] [--engines ppsa,trilat,fpbp,gml,gml-nlos-drop]
+//!        [--out out/nlos_sweep]
+//! Engine `gml-nlos-drop` is `gml` with `ble.nlos.gml_mode = drop`,
+//! `gml-nlos-correct` with `correct`. Writes OUT/table.md, OUT/table.csv and
+//! OUT/rmse_vs_nlos_rate.png.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, Result, anyhow, bail};
+use fpbp_core::ble::nlos::NlosGmlMode;
+use fpbp_core::engine::replay::replay;
+use fpbp_core::engine::{EngineConfig, build_engine};
+use fpbp_core::site::{Site, SiteSpec};
+use fpbp_sim::{SimProfile, SimRequest};
+use plotters::prelude::*;
+use plotters::style::FontStyle;
+
+static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
+
+fn load_site(path: &Path) -> Result<Arc<Site>> {
+    let name = path.display().to_string();
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {name}"))?;
+    let spec = SiteSpec::from_json(&bytes, &name)?;
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    Ok(Arc::new(Site::build(spec, &name, &mut |p: &str| {
+        std::fs::read(dir.join(p))
+    })?))
+}
+
+fn engine_config(name: &str, seed: u64) -> (String, EngineConfig) {
+    let mut cfg = EngineConfig {
+        seed,
+        ..EngineConfig::default()
+    };
+    let base = match name {
+        "gml-nlos-drop" => {
+            cfg.ble.nlos.gml_mode = NlosGmlMode::Drop;
+            "gml"
+        }
+        "gml-nlos-correct" => {
+            cfg.ble.nlos.gml_mode = NlosGmlMode::Correct;
+            "gml"
+        }
+        n => n,
+    };
+    (base.to_string(), cfg)
+}
+
+#[derive(Default, Clone)]
+struct Acc {
+    errors: Vec<f64>,
+    points: usize,
+    no_fix: usize,
+}
+
+fn main() -> Result<()> {
+    let mut site_path = PathBuf::from("maps/demo/site.json");
+    let mut seconds = 120.0;
+    let mut seeds = 3u64;
+    let mut rates = vec![0.0, 0.2, 0.4, 0.6, 0.8, 1.0];
+    let mut engines: Vec<String> = ["ppsa", "trilat", "fpbp", "gml", "gml-nlos-drop"]
+        .map(String::from)
+        .to_vec();
+    let mut out = PathBuf::from("out/nlos_sweep");
+    let mut args = std::env::args().skip(1);
+    while let Some(a) = args.next() {
+        let mut val = || args.next().ok_or_else(|| anyhow!("{a} needs a value"));
+        match a.as_str() {
+            "--site" => site_path = PathBuf::from(val()?),
+            "--seconds" => seconds = val()?.parse().context("--seconds")?,
+            "--seeds" => seeds = val()?.parse().context("--seeds")?,
+            "--rates" => {
+                rates = val()?
+                    .split(',')
+                    .map(|s| s.trim().parse::<f64>())
+                    .collect::<Result<_, _>>()
+                    .context("--rates")?
+            }
+            "--engines" => engines = val()?.split(',').map(|s| s.trim().to_string()).collect(),
+            "--out" => out = PathBuf::from(val()?),
+            other => bail!("unknown argument {other}"),
+        }
+    }
+    if rates.iter().any(|r| !(0.0..=1.0).contains(r)) {
+        bail!("--rates: every rate must be in [0, 1]");
+    }
+    let site = load_site(&site_path)?;
+    std::fs::create_dir_all(&out).with_context(|| format!("creating {}", out.display()))?;
+    // acc[engine][rate]
+    let mut acc = vec![vec![Acc::default(); rates.len()]; engines.len()];
+    for (ri, &rate) in rates.iter().enumerate() {
+        for seed in 1..=seeds {
+            let mut req = SimRequest::new(seconds, seed);
+            req.profile = SimProfile::named("default")?;
+            req.profile.ble.nlos_rate = rate;
+            let log = fpbp_sim::simulate(&site, &req).context("simulating")?;
+            for (ei, name) in engines.iter().enumerate() {
+                let (base, cfg) = engine_config(name, seed);
+                let mut e = build_engine(&base, site.clone(), &cfg, None)
+                    .with_context(|| format!("engine {name}"))?;
+                let r = replay(e.as_mut(), log.events.iter().cloned());
+                let a = &mut acc[ei][ri];
+                a.points += r.scored.len();
+                for s in &r.scored {
+                    match s.error_m() {
+                        Some(x) => a.errors.push(x),
+                        None => a.no_fix += 1,
+                    }
+                }
+            }
+            eprintln!("rate {rate:.2} seed {seed} done");
+        }
+    }
+    // table
+    let mut md = String::new();
+    let mut csv = String::from("engine,nlos_rate,points,no_fix,rmse_m,mean_m,p50_m,p90_m\n");
+    writeln!(
+        md,
+        "NLOS sweep: site {}, {} s x {} seeds per rate, profile default (nlos_mean_db {}, nlos_sigma_db {}); RMSE / mean / p90 error in m over all truth points with a fix (no-fix share)\n",
+        site_path.display(),
+        seconds,
+        seeds,
+        SimProfile::default().ble.nlos_mean_db,
+        SimProfile::default().ble.nlos_sigma_db
+    )?;
+    write!(md, "| engine |")?;
+    for r in &rates {
+        write!(md, " r={r:.1} |")?;
+    }
+    writeln!(md)?;
+    writeln!(md, "|---|{}", "---|".repeat(rates.len()))?;
+    let mut series = Vec::new();
+    for (ei, name) in engines.iter().enumerate() {
+        write!(md, "| {name} |")?;
+        let mut pts = Vec::new();
+        for (ri, &rate) in rates.iter().enumerate() {
+            let a = &acc[ei][ri];
+            let mut v = a.errors.clone();
+            v.sort_by(f64::total_cmp);
+            let n = v.len().max(1) as f64;
+            let rmse = (v.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
+            let mean = v.iter().sum::<f64>() / n;
+            let pct = |p: f64| v.get(((p * (v.len() as f64 - 1.0)).round()) as usize).copied();
+            let p50 = pct(0.5).unwrap_or(f64::NAN);
+            let p90 = pct(0.9).unwrap_or(f64::NAN);
+            let nf = a.no_fix as f64 / a.points.max(1) as f64;
+            write!(md, " {rmse:.2} / {mean:.2} / {p90:.2} ({:.0}%) |", nf * 100.0)?;
+            writeln!(
+                csv,
+                "{name},{rate},{},{},{rmse:.4},{mean:.4},{p50:.4},{p90:.4}",
+                a.points, a.no_fix
+            )?;
+            if !v.is_empty() {
+                pts.push((rate, rmse));
+            }
+        }
+        writeln!(md)?;
+        series.push((name.clone(), pts));
+    }
+    std::fs::write(out.join("table.md"), &md)?;
+    std::fs::write(out.join("table.csv"), &csv)?;
+    plot(&out.join("rmse_vs_nlos_rate.png"), &series)?;
+    print!("{md}");
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
+fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)]) -> Result<()> {
+    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+        .map_err(|_| anyhow!("font"))?;
+    let y_max = series
+        .iter()
+        .flat_map(|(_, v)| v.iter().map(|p| p.1))
+        .filter(|y| y.is_finite())
+        .fold(1.0f64, f64::max)
+        * 1.1;
+    let (w, h) = (900u32, 600u32);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("RMSE vs NLOS rate (simulated)", ("sans-serif", 18))
+            .margin(15)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..1.0, 0.0..y_max)
+            .map_err(|e| anyhow!("{e}"))?;
+        chart
+            .configure_mesh()
+            .x_desc("NLOS rate")
+            .y_desc("RMSE (m)")
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        let palette = [
+            RGBColor(31, 119, 180),
+            RGBColor(255, 127, 14),
+            RGBColor(44, 160, 44),
+            RGBColor(148, 103, 189),
+            RGBColor(140, 86, 75),
+            RGBColor(227, 119, 194),
+            RGBColor(127, 127, 127),
+        ];
+        for (i, (label, pts)) in series.iter().enumerate() {
+            let c = palette[i % palette.len()];
+            chart
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                .map_err(|e| anyhow!("{e}"))?
+                .label(label.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+                .map_err(|e| anyhow!("{e}"))?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(SeriesLabelPosition::UpperLeft)
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow!("{e}"))?;
+    }
+    let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("image buffer"))?;
+    img.save(path)
+        .with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}

@@ -348,9 +348,17 @@ mod tests {
         let ms = run_with(&args, &common::core_builder, false).unwrap();
         let m = &ms[0];
         assert_eq!(m.logs, 2);
-        let waypoints: u64 = m.per_log.iter().map(|l| l.errors.points as u64 + 1).sum();
-        assert!(m.errors.points >= 2 && m.errors.no_fix == 0, "{m:?}");
-        assert_eq!(waypoints, m.per_log.len() as u64 + m.errors.points as u64);
+        assert_eq!(m.errors.no_fix, 0, "{m:?}");
+        // Every waypoint but the start is scored.
+        for (row, path) in m.per_log.iter().zip(select_logs(&args.logs, Split::Odd)) {
+            let (_, rep) = fpbp_logs::read_all(&path, &fpbp_logs::ReadOptions::default()).unwrap();
+            assert_eq!(
+                row.errors.points as u64,
+                rep.events.truth - 1,
+                "{}",
+                row.log
+            );
+        }
         assert!(
             m.per_log
                 .iter()

@@ -11,7 +11,9 @@
 //! Usage: cargo run --release -p fpbp-cli --example nlos_sweep --
 //!        [--site maps/demo/site.json] [--seconds 120] [--seeds 3]
 //!        [--rates 0,0.2,0.4,0.6,0.8,1] [--engines ppsa,trilat,fpbp,gml,gml-nlos-drop]
-//!        [--out out/nlos_sweep]
+//!        [--out out/nlos_sweep] [--init-truth]
+//! `--init-truth` hands every engine the log's first truth point (as
+//! `fpbp eval --init truth`); without it engines find their own start.
 //! Engine `gml-nlos-drop` is `gml` with `ble.nlos.gml_mode = drop`,
 //! `gml-nlos-correct` with `correct`. Writes OUT/table.md, OUT/table.csv and
 //! OUT/rmse_vs_nlos_rate.png.
@@ -23,7 +25,8 @@ use std::sync::Arc;
 use anyhow::{Context, Result, anyhow, bail};
 use fpbp_core::ble::nlos::NlosGmlMode;
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, build_engine};
+use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::events::LogEvent;
 use fpbp_core::site::{Site, SiteSpec};
 use fpbp_sim::{SimProfile, SimRequest};
 use plotters::prelude::*;
@@ -76,6 +79,7 @@ fn main() -> Result<()> {
         .map(String::from)
         .to_vec();
     let mut out = PathBuf::from("out/nlos_sweep");
+    let mut init_truth = false;
     let mut args = std::env::args().skip(1);
     while let Some(a) = args.next() {
         let mut val = || args.next().ok_or_else(|| anyhow!("{a} needs a value"));
@@ -92,6 +96,7 @@ fn main() -> Result<()> {
             }
             "--engines" => engines = val()?.split(',').map(|s| s.trim().to_string()).collect(),
             "--out" => out = PathBuf::from(val()?),
+            "--init-truth" => init_truth = true,
             other => bail!("unknown argument {other}"),
         }
     }
@@ -110,7 +115,20 @@ fn main() -> Result<()> {
             let log = fpbp_sim::simulate(&site, &req).context("simulating")?;
             for (ei, name) in engines.iter().enumerate() {
                 let (base, cfg) = engine_config(name, seed);
-                let mut e = build_engine(&base, site.clone(), &cfg, None)
+                let init = init_truth
+                    .then(|| {
+                        log.events.iter().find_map(|e| match e {
+                            LogEvent::Truth(t) => Some(InitialPosition {
+                                x_m: t.x_m,
+                                y_m: t.y_m,
+                                floor: t.floor.unwrap_or(0),
+                                heading_rad: None,
+                            }),
+                            _ => None,
+                        })
+                    })
+                    .flatten();
+                let mut e = build_engine(&base, site.clone(), &cfg, init)
                     .with_context(|| format!("engine {name}"))?;
                 let r = replay(e.as_mut(), log.events.iter().cloned());
                 let a = &mut acc[ei][ri];
@@ -130,8 +148,9 @@ fn main() -> Result<()> {
     let mut csv = String::from("engine,nlos_rate,points,no_fix,rmse_m,mean_m,p50_m,p90_m\n");
     writeln!(
         md,
-        "NLOS sweep: site {}, {} s x {} seeds per rate, profile default (nlos_mean_db {}, nlos_sigma_db {}); RMSE / mean / p90 error in m over all truth points with a fix (no-fix share)\n",
+        "NLOS sweep: site {}, init {}, {} s x {} seeds per rate, profile default (nlos_mean_db {}, nlos_sigma_db {}); RMSE / mean / p90 error in m over all truth points with a fix (no-fix share)\n",
         site_path.display(),
+        if init_truth { "truth" } else { "none" },
         seconds,
         seeds,
         SimProfile::default().ble.nlos_mean_db,
@@ -154,11 +173,18 @@ fn main() -> Result<()> {
             let n = v.len().max(1) as f64;
             let rmse = (v.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
             let mean = v.iter().sum::<f64>() / n;
-            let pct = |p: f64| v.get(((p * (v.len() as f64 - 1.0)).round()) as usize).copied();
+            let pct = |p: f64| {
+                v.get(((p * (v.len() as f64 - 1.0)).round()) as usize)
+                    .copied()
+            };
             let p50 = pct(0.5).unwrap_or(f64::NAN);
             let p90 = pct(0.9).unwrap_or(f64::NAN);
             let nf = a.no_fix as f64 / a.points.max(1) as f64;
-            write!(md, " {rmse:.2} / {mean:.2} / {p90:.2} ({:.0}%) |", nf * 100.0)?;
+            write!(
+                md,
+                " {rmse:.2} / {mean:.2} / {p90:.2} ({:.0}%) |",
+                nf * 100.0
+            )?;
             writeln!(
                 csv,
                 "{name},{rate},{},{},{rmse:.4},{mean:.4},{p50:.4},{p90:.4}",
@@ -221,7 +247,9 @@ fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)]) -> Result<()> {
                 .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
                 .map_err(|e| anyhow!("{e}"))?
                 .label(label.clone())
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
                 .map_err(|e| anyhow!("{e}"))?;

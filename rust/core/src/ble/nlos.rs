@@ -387,6 +387,8 @@ mod tests {
         let th = c.th_best();
         let num = numeric_min(c.sigma1(), c.sigma2(), c.mu_nlos_dbm);
         assert!((th - num).abs() < 1e-3, "closed {th} numeric {num}");
+        // sigma 1.9 / 4.25, mu 10: the quadratic's roots are 3.7056 and -8.7012
+        assert!((th - 3.7056).abs() < 1e-3, "{th}");
         // strictly between the two means, nearer the narrower LOS one
         assert!(th > 0.0 && th < c.mu_nlos_dbm / 2.0 + 1.0, "{th}");
         // equal sigmas: midway
@@ -452,7 +454,7 @@ mod tests {
         let id = NlosIdentifier::new(&cfg, 0.5);
         let (out, n) = id.apply_to_set(&set, p);
         assert_eq!(n, 2);
-        // 2 LOS + the least attenuated NLOS (20 m, delta 12 < 11.5? no: 30 m has 11.5)
+        // 2 LOS + the least attenuated NLOS beacon (30 m: delta 11.5 < 12 at 20 m)
         assert_eq!(out.len(), 3);
         assert!(out.iter().any(|b| b.pos.x == 30.0));
         assert!(!out.iter().any(|b| b.pos.x == 20.0));

@@ -1,0 +1,103 @@
+//! What a format parser makes of one line, and small field helpers.
+
+use fpbp_core::events::LogEvent;
+
+/// The result of parsing one line.
+#[derive(Debug, Clone, PartialEq)]
+pub enum LineOutcome {
+    /// A header, comment or empty line.
+    Header,
+    /// One event.
+    Event(LogEvent),
+    /// A well-formed record of a kind fpbp does not use.
+    Ignored,
+    /// A lat/lon truth point that needs the site georeference, which was not given.
+    TruthWithoutGeoref,
+    /// A malformed line; the message says what is wrong.
+    Malformed(String),
+}
+
+/// Parses field `i` of `fields` as f64, naming it in the error.
+pub fn f64_field(fields: &[&str], i: usize, name: &str) -> Result<f64, String> {
+    let s = fields
+        .get(i)
+        .ok_or_else(|| format!("missing field {} ({name})", i + 1))?;
+    s.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("field {} ({name}): `{s}` is not a number", i + 1))
+}
+
+/// Parses field `i` as i64.
+pub fn i64_field(fields: &[&str], i: usize, name: &str) -> Result<i64, String> {
+    let s = fields
+        .get(i)
+        .ok_or_else(|| format!("missing field {} ({name})", i + 1))?;
+    s.trim()
+        .parse::<i64>()
+        .map_err(|_| format!("field {} ({name}): `{s}` is not an integer", i + 1))
+}
+
+/// Field `i` as a trimmed string.
+pub fn str_field<'a>(fields: &[&'a str], i: usize, name: &str) -> Result<&'a str, String> {
+    fields
+        .get(i)
+        .map(|s| s.trim())
+        .ok_or_else(|| format!("missing field {} ({name})", i + 1))
+}
+
+/// Seconds -> ns, rejecting non-finite or out-of-range times.
+pub fn seconds_to_ns(s: f64) -> Result<i64, String> {
+    let ns = (s * 1e9).round();
+    if ns.is_finite() && ns.abs() < 9.0e18 {
+        Ok(ns as i64)
+    } else {
+        Err(format!("time {s} s is out of range"))
+    }
+}
+
+/// `ibeacon:UUID:major:minor` with the UUID in upper case.
+pub fn ibeacon_id(uuid: &str, major: u32, minor: u32) -> String {
+    format!("ibeacon:{}:{major}:{minor}", uuid.to_ascii_uppercase())
+}
+
+/// `mac:AA:BB:CC:DD:EE:FF` in upper case; checks the shape.
+pub fn mac_id(mac: &str) -> Result<String, String> {
+    let ok = mac.len() == 17
+        && mac.split(':').count() == 6
+        && mac
+            .split(':')
+            .all(|b| b.len() == 2 && b.chars().all(|c| c.is_ascii_hexdigit()));
+    if ok {
+        Ok(format!("mac:{}", mac.to_ascii_uppercase()))
+    } else {
+        Err(format!("`{mac}` is not a MAC address"))
+    }
+}
+
+/// Whether every number in the event is finite.
+pub fn is_finite(e: &LogEvent) -> bool {
+    use fpbp_core::events::SensorData as S;
+    let fin = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    let opt = |v: Option<f64>| v.is_none_or(f64::is_finite);
+    match e {
+        LogEvent::Sensor(s) => match &s.data {
+            S::Accelerometer(v) | S::Gyroscope(v) | S::Magnetometer(v) => fin(v),
+            S::RotationVector(q) | S::GameRotationVector(q) => fin(q),
+            S::Pressure(p) => p.is_finite(),
+        },
+        LogEvent::Ble(b) => b.rssi_dbm.is_finite() && opt(b.tx_power_dbm),
+        LogEvent::Gnss(g) => {
+            fin(&[g.lat_deg, g.lon_deg])
+                && opt(g.alt_m)
+                && opt(g.accuracy_m)
+                && opt(g.speed_mps)
+                && opt(g.bearing_deg)
+        }
+        LogEvent::Truth(t) => t.x_m.is_finite() && t.y_m.is_finite(),
+    }
+}
+
+/// A BLE tx power is plausible in [-127, 0) dBm (ILC logs a +68 byte now and then).
+pub fn valid_tx_power(tx_dbm: f64) -> bool {
+    (-127.0..0.0).contains(&tx_dbm)
+}

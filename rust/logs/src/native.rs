@@ -1,0 +1,287 @@
+//! fpbp native log v1: text, one event per line, `t_ns` first (docs/formats.md
+//! "Native log v1").
+//!
+//! ```text
+//! #fpbp-log 1
+//! #meta device=Pixel 7
+//! #meta seed=42
+//! 1000000 ACC 0.1 0.2 9.81
+//! 1000000 BLE ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:2 -71 -59
+//! 2000000 TRUTH 12.5 3.25 0
+//! ```
+
+use std::collections::BTreeMap;
+use std::io::Write;
+
+use fpbp_core::events::{BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint};
+
+use crate::line::{LineOutcome, f64_field, i64_field, str_field};
+
+/// First line of every native log (followed by a space and the version).
+pub const MAGIC: &str = "#fpbp-log";
+/// The version this module reads and writes.
+pub const VERSION: u32 = 1;
+
+/// The header of a native log: version and free `key=value` metadata
+/// (device, site, seed, ...). Keys have no whitespace and no `=`; values are
+/// one line.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct NativeHeader {
+    pub meta: BTreeMap<String, String>,
+}
+
+impl NativeHeader {
+    /// A header with no metadata.
+    pub fn new() -> Self {
+        NativeHeader::default()
+    }
+
+    /// Adds one metadata entry (builder style).
+    pub fn with(mut self, key: impl Into<String>, value: impl Into<String>) -> Self {
+        self.meta.insert(key.into(), value.into());
+        self
+    }
+}
+
+/// Writes a native v1 log.
+pub struct NativeWriter<W: Write> {
+    w: W,
+    line: String,
+}
+
+fn invalid(msg: String) -> std::io::Error {
+    std::io::Error::new(std::io::ErrorKind::InvalidInput, msg)
+}
+
+impl<W: Write> NativeWriter<W> {
+    /// Writes the header lines. Fails if a metadata key or value cannot be
+    /// written on one line.
+    pub fn new(mut w: W, header: &NativeHeader) -> std::io::Result<Self> {
+        writeln!(w, "{MAGIC} {VERSION}")?;
+        for (k, v) in &header.meta {
+            if k.is_empty() || k.contains(char::is_whitespace) || k.contains('=') {
+                return Err(invalid(format!("native header: bad metadata key `{k}`")));
+            }
+            if v.contains(['\n', '\r']) {
+                return Err(invalid(format!(
+                    "native header: value of `{k}` has a line break"
+                )));
+            }
+            writeln!(w, "#meta {k}={v}")?;
+        }
+        Ok(NativeWriter {
+            w,
+            line: String::new(),
+        })
+    }
+
+    /// Writes one event. Floats use Rust's shortest round-trip representation,
+    /// so a write -> read round trip is exact.
+    pub fn write(&mut self, e: &LogEvent) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        let l = &mut self.line;
+        l.clear();
+        let opt = |v: Option<f64>| v.map_or("-".to_string(), |x| format!("{x}"));
+        // Writing into a String cannot fail.
+        let _ = match e {
+            LogEvent::Sensor(s) => match s.data {
+                SensorData::Accelerometer(v) => {
+                    write!(l, "{} ACC {} {} {}", s.t_ns, v[0], v[1], v[2])
+                }
+                SensorData::Gyroscope(v) => write!(l, "{} GYR {} {} {}", s.t_ns, v[0], v[1], v[2]),
+                SensorData::Magnetometer(v) => {
+                    write!(l, "{} MAG {} {} {}", s.t_ns, v[0], v[1], v[2])
+                }
+                SensorData::RotationVector(q) => {
+                    write!(l, "{} ROT {} {} {} {}", s.t_ns, q[0], q[1], q[2], q[3])
+                }
+                SensorData::GameRotationVector(q) => {
+                    write!(l, "{} GRV {} {} {} {}", s.t_ns, q[0], q[1], q[2], q[3])
+                }
+                SensorData::Pressure(p) => write!(l, "{} PRS {}", s.t_ns, p),
+            },
+            LogEvent::Ble(b) => {
+                if b.beacon_id.is_empty() || b.beacon_id.contains(char::is_whitespace) {
+                    return Err(invalid(format!(
+                        "native log: beacon id `{}` is empty or has whitespace",
+                        b.beacon_id
+                    )));
+                }
+                write!(
+                    l,
+                    "{} BLE {} {} {}",
+                    b.t_ns,
+                    b.beacon_id,
+                    b.rssi_dbm,
+                    opt(b.tx_power_dbm)
+                )
+            }
+            LogEvent::Gnss(g) => write!(
+                l,
+                "{} GNSS {} {} {} {} {} {}",
+                g.t_ns,
+                g.lat_deg,
+                g.lon_deg,
+                opt(g.alt_m),
+                opt(g.accuracy_m),
+                opt(g.speed_mps),
+                opt(g.bearing_deg)
+            ),
+            LogEvent::Truth(t) => write!(
+                l,
+                "{} TRUTH {} {} {}",
+                t.t_ns,
+                t.x_m,
+                t.y_m,
+                t.floor.map_or("-".to_string(), |f| f.to_string())
+            ),
+        };
+        l.push('\n');
+        self.w.write_all(l.as_bytes())
+    }
+
+    /// Flushes and returns the inner writer.
+    pub fn finish(mut self) -> std::io::Result<W> {
+        self.w.flush()?;
+        Ok(self.w)
+    }
+}
+
+/// Parses the header line; `Ok(version)` when it is a native header.
+pub fn parse_magic(line: &str) -> Option<&str> {
+    let rest = line.trim_end().strip_prefix(MAGIC)?;
+    let v = rest.trim();
+    (rest.starts_with(char::is_whitespace) && !v.is_empty()).then_some(v)
+}
+
+/// Line parser of native v1 logs.
+#[derive(Debug, Default)]
+pub struct NativeParser {
+    /// Metadata gathered from `#meta` lines.
+    pub header: NativeHeader,
+    default_floor: Option<i32>,
+}
+
+impl NativeParser {
+    pub fn new(default_floor: Option<i32>) -> Self {
+        NativeParser {
+            header: NativeHeader::new(),
+            default_floor,
+        }
+    }
+
+    /// Parses one line (without its line break).
+    pub fn parse_line(&mut self, line: &str) -> LineOutcome {
+        let line = line.trim_end_matches(['\r', '\n']);
+        if line.trim().is_empty() {
+            return LineOutcome::Header;
+        }
+        if let Some(rest) = line.strip_prefix('#') {
+            if let Some(kv) = rest.strip_prefix("meta ")
+                && let Some((k, v)) = kv.split_once('=')
+            {
+                self.header.meta.insert(k.trim().to_string(), v.to_string());
+            }
+            return LineOutcome::Header;
+        }
+        match self.parse_event(line) {
+            Ok(e) => LineOutcome::Event(e),
+            Err(m) => LineOutcome::Malformed(m),
+        }
+    }
+
+    fn parse_event(&self, line: &str) -> Result<LogEvent, String> {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        let t_ns = i64_field(&f, 0, "t_ns")?;
+        let kind = str_field(&f, 1, "kind")?;
+        let need = |n: usize| -> Result<(), String> {
+            if f.len() == n {
+                Ok(())
+            } else {
+                Err(format!(
+                    "{kind} needs {} values, got {}",
+                    n - 2,
+                    f.len().saturating_sub(2)
+                ))
+            }
+        };
+        let num = |i: usize, name: &str| f64_field(&f, i, name);
+        let opt = |i: usize, name: &str| -> Result<Option<f64>, String> {
+            if f.get(i) == Some(&"-") {
+                Ok(None)
+            } else {
+                num(i, name).map(Some)
+            }
+        };
+        let v3 = || -> Result<[f64; 3], String> { Ok([num(2, "x")?, num(3, "y")?, num(4, "z")?]) };
+        let q4 = || -> Result<[f64; 4], String> {
+            Ok([num(2, "x")?, num(3, "y")?, num(4, "z")?, num(5, "w")?])
+        };
+        let sensor = |data| Ok(LogEvent::Sensor(SensorEvent { t_ns, data }));
+        match kind {
+            "ACC" => {
+                need(5)?;
+                sensor(SensorData::Accelerometer(v3()?))
+            }
+            "GYR" => {
+                need(5)?;
+                sensor(SensorData::Gyroscope(v3()?))
+            }
+            "MAG" => {
+                need(5)?;
+                sensor(SensorData::Magnetometer(v3()?))
+            }
+            "ROT" => {
+                need(6)?;
+                sensor(SensorData::RotationVector(q4()?))
+            }
+            "GRV" => {
+                need(6)?;
+                sensor(SensorData::GameRotationVector(q4()?))
+            }
+            "PRS" => {
+                need(3)?;
+                sensor(SensorData::Pressure(num(2, "pressure_hpa")?))
+            }
+            "BLE" => {
+                need(5)?;
+                Ok(LogEvent::Ble(BleObservation {
+                    t_ns,
+                    beacon_id: f[2].to_string(),
+                    rssi_dbm: num(3, "rssi_dbm")?,
+                    tx_power_dbm: opt(4, "tx_power_dbm")?,
+                }))
+            }
+            "GNSS" => {
+                need(8)?;
+                Ok(LogEvent::Gnss(GnssFix {
+                    t_ns,
+                    lat_deg: num(2, "lat_deg")?,
+                    lon_deg: num(3, "lon_deg")?,
+                    alt_m: opt(4, "alt_m")?,
+                    accuracy_m: opt(5, "accuracy_m")?,
+                    speed_mps: opt(6, "speed_mps")?,
+                    bearing_deg: opt(7, "bearing_deg")?,
+                }))
+            }
+            "TRUTH" => {
+                need(5)?;
+                let floor =
+                    if f[4] == "-" {
+                        self.default_floor
+                    } else {
+                        Some(f[4].parse::<i32>().map_err(|_| {
+                            format!("field 5 (floor): `{}` is not an integer", f[4])
+                        })?)
+                    };
+                Ok(LogEvent::Truth(TruthPoint {
+                    t_ns,
+                    x_m: num(2, "x_m")?,
+                    y_m: num(3, "y_m")?,
+                    floor,
+                }))
+            }
+            other => Err(format!("unknown event kind `{other}`")),
+        }
+    }
+}

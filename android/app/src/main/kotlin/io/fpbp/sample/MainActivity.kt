@@ -8,7 +8,6 @@ import android.hardware.SensorManager
 import android.os.Build
 import android.os.Bundle
 import android.os.SystemClock
-import android.util.Log
 import android.widget.Button
 import android.widget.LinearLayout
 import android.widget.TextView
@@ -197,6 +196,5 @@ class MainActivity : Activity() {
     private companion object {
         const val ENGINE = "fpbp"
         const val REQUEST_PERMISSIONS = 1
-        @Suppress("unused") const val TAG = "fpbp.sample"
     }
 }

@@ -1,1 +1,601 @@
-//! Shared glue of the subcommands: loading sites and logs from files.
+//! Shared glue of the subcommands: loading sites, configs and logs, running an
+//! engine over a log, and the error metrics `fpbp replay` and `fpbp eval` write.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, bail};
+use fpbp_core::engine::replay::{ReplayOutput, Replayer, ScoredPoint};
+use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task};
+use fpbp_core::events::LogEvent;
+use fpbp_core::site::Site;
+use fpbp_logs::{ReadOptions, ReadReport};
+use serde::Serialize;
+
+/// Loads a site file (site.json + plans).
+///
+/// Stand-in until the map helper's `site_io::load_site` lands on main: it
+/// reads the spec and builds open floors only (a walkable rectangle with a
+/// wall border at 2 px/m). It will become a call to `crate::site_io::load_site`.
+pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
+    use fpbp_core::map::{Feature, FloorMap};
+    let name = path.display().to_string();
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read site file {name}"))?;
+    let spec: fpbp_core::site::SiteSpec =
+        serde_json::from_str(&text).with_context(|| format!("site file {name}"))?;
+    let mut floors = Vec::new();
+    for (i, f) in spec.floors.iter().enumerate() {
+        let Some([w_m, h_m]) = f.open_area_m else {
+            bail!(
+                "{name}: floors[{i}]: plan floors need the map loader (not merged yet); only open_area_m floors load"
+            );
+        };
+        if !(w_m > 0.0 && h_m > 0.0 && w_m * h_m < 1e7) {
+            bail!("{name}: floors[{i}].open_area_m: {w_m} x {h_m} m is out of range");
+        }
+        let r = 2.0;
+        let (w, h) = ((w_m * r).ceil() as usize, (h_m * r).ceil() as usize);
+        let features = (0..w * h)
+            .map(|k| {
+                let (x, y) = (k % w, k / w);
+                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
+                    Feature::Wall
+                } else {
+                    Feature::Walkable
+                }
+            })
+            .collect();
+        floors.push(FloorMap::from_features(w, h, r, features));
+    }
+    Ok(Arc::new(Site { spec, floors }))
+}
+
+/// Reads an engine config (JSON; missing fields take defaults) and applies `--seed`.
+pub fn load_config(path: Option<&Path>, seed: Option<u64>) -> anyhow::Result<EngineConfig> {
+    let mut cfg = match path {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read config {}", p.display()))?;
+            EngineConfig::from_json(&text).with_context(|| format!("config {}", p.display()))?
+        }
+        None => EngineConfig::default(),
+    };
+    if let Some(s) = seed {
+        cfg.seed = s;
+    }
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+/// Read options for logs replayed on `site`: its georeference (lat/lon truth)
+/// and the floor given to truth points that carry none (`--floor`, else the
+/// site's floor when it has exactly one).
+pub fn read_options(site: &Site, floor: Option<i32>, strict: bool) -> ReadOptions {
+    let single = (site.spec.floors.len() == 1).then(|| site.default_floor());
+    ReadOptions {
+        strict,
+        site_georef: site.spec.georef.map(|g| (g, site.spec.map_from_enu_rad)),
+        default_floor: floor.or(single),
+        ..Default::default()
+    }
+}
+
+/// A log read into memory (so replay timing measures the engine, not parsing).
+pub struct LoadedLog {
+    pub path: PathBuf,
+    /// The file name, used as the log's name in metrics.
+    pub name: String,
+    pub events: Vec<LogEvent>,
+    pub report: ReadReport,
+}
+
+/// Reads a whole log; in lenient mode an I/O error keeps what was read and warns.
+pub fn load_log(path: &Path, opts: &ReadOptions) -> anyhow::Result<LoadedLog> {
+    let mut r = fpbp_logs::open_log(path, opts)?;
+    let mut events = Vec::new();
+    loop {
+        match r.try_next() {
+            Ok(Some(e)) => events.push(e),
+            Ok(None) => break,
+            Err(e) if !opts.strict && matches!(e, fpbp_logs::LogError::Io { .. }) => {
+                log::warn!("{e} (keeping the {} events read before it)", events.len());
+                break;
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
+    let report = r.report();
+    if report.malformed_skipped > 0 {
+        log::warn!(
+            "{}: {} malformed lines skipped (first: {})",
+            path.display(),
+            report.malformed_skipped,
+            report.first_malformed.as_deref().unwrap_or("?")
+        );
+    }
+    if report.truth_without_georef > 0 {
+        log::warn!(
+            "{}: {} lat/lon truth points skipped: the site has no georef",
+            path.display(),
+            report.truth_without_georef
+        );
+    }
+    let name = path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    Ok(LoadedLog {
+        path: path.to_path_buf(),
+        name,
+        events,
+        report,
+    })
+}
+
+/// Whether engines get the first truth point as their start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum InitMode {
+    /// Engines find their own start; only `pdr` gets the first truth point.
+    None,
+    /// Every engine gets the first truth point (as after a tap on the map).
+    Truth,
+}
+
+/// Engines that need a start position and may read the first truth point.
+pub const NEEDS_TRUTH_START: &[&str] = &["pdr"];
+
+/// The start handed to `engine` on `log`, and the index of the event replay
+/// begins at. With a start from truth point k at t0 the replay begins after
+/// event k: the position is only known from t0 on, and that truth point is not
+/// scored (its error would be zero by construction).
+pub fn start_for(
+    engine: &str,
+    mode: InitMode,
+    log: &LoadedLog,
+    site: &Site,
+) -> anyhow::Result<(Option<InitialPosition>, usize)> {
+    let wants = mode == InitMode::Truth || NEEDS_TRUTH_START.contains(&engine);
+    if !wants {
+        return Ok((None, 0));
+    }
+    let Some((k, tp)) = log.events.iter().enumerate().find_map(|(k, e)| match e {
+        LogEvent::Truth(t) => Some((k, *t)),
+        _ => None,
+    }) else {
+        bail!(
+            "{}: engine `{engine}` needs a start from truth, but the log has no truth point",
+            log.path.display()
+        );
+    };
+    let init = InitialPosition {
+        x_m: tp.x_m,
+        y_m: tp.y_m,
+        floor: tp.floor.unwrap_or_else(|| site.default_floor()),
+        heading_rad: None,
+    };
+    Ok((Some(init), k + 1))
+}
+
+/// Builds engines by name (the real factory, or a test double).
+pub type EngineBuilder<'a> = dyn Fn(&str, Arc<Site>, &EngineConfig, Option<InitialPosition>) -> anyhow::Result<Box<dyn Engine>>
+    + 'a;
+
+/// The core's factory.
+pub fn core_builder(
+    name: &str,
+    site: Arc<Site>,
+    cfg: &EngineConfig,
+    init: Option<InitialPosition>,
+) -> anyhow::Result<Box<dyn Engine>> {
+    Ok(fpbp_core::engine::build_engine(name, site, cfg, init)?)
+}
+
+/// One engine's replay of one log.
+pub struct LogRun {
+    pub log: String,
+    pub init: Option<InitialPosition>,
+    pub out: ReplayOutput,
+}
+
+/// Replays `log` through engine `name`.
+pub fn run_log(
+    build: &EngineBuilder,
+    name: &str,
+    site: &Arc<Site>,
+    cfg: &EngineConfig,
+    mode: InitMode,
+    log: &LoadedLog,
+) -> anyhow::Result<LogRun> {
+    let (init, start) = start_for(name, mode, log, site)?;
+    let mut engine =
+        build(name, site.clone(), cfg, init).with_context(|| format!("engine `{name}`"))?;
+    let mut r = Replayer::new(engine.as_mut());
+    for e in &log.events[start..] {
+        r.push(e);
+    }
+    Ok(LogRun {
+        log: log.name.clone(),
+        init,
+        out: r.finish(),
+    })
+}
+
+/// Percentile `p` (0..=100) of sorted values, linear between order statistics
+/// (numpy's default); None when empty.
+pub fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
+    let n = sorted.len();
+    if n == 0 {
+        return None;
+    }
+    let r = (p / 100.0).clamp(0.0, 1.0) * (n - 1) as f64;
+    let (lo, hi) = (r.floor() as usize, r.ceil() as usize);
+    Some(sorted[lo] + (sorted[hi] - sorted[lo]) * (r - lo as f64))
+}
+
+/// Error statistics at truth points.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ErrorStats {
+    /// Truth points scored (with or without a fix).
+    pub points: usize,
+    /// Truth points at which the engine had no pose yet (not in the errors).
+    pub no_fix: usize,
+    pub mpe_m: Option<f64>,
+    pub p50_m: Option<f64>,
+    pub p75_m: Option<f64>,
+    pub p80_m: Option<f64>,
+    pub p95_m: Option<f64>,
+    pub max_m: Option<f64>,
+    /// Fraction of fixes on the truth's floor (None when no truth has a floor).
+    pub floor_accuracy: Option<f64>,
+}
+
+impl ErrorStats {
+    pub fn from_points<'a>(pts: impl IntoIterator<Item = &'a ScoredPoint>) -> ErrorStats {
+        let mut errors = Vec::new();
+        let (mut points, mut no_fix, mut floors, mut floors_ok) = (0, 0, 0usize, 0usize);
+        for p in pts {
+            points += 1;
+            match p.error_m() {
+                Some(e) if e.is_finite() => errors.push(e),
+                _ => no_fix += 1,
+            }
+            if let Some(ok) = p.floor_correct() {
+                floors += 1;
+                floors_ok += ok as usize;
+            }
+        }
+        errors.sort_by(f64::total_cmp);
+        let mean = (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64);
+        ErrorStats {
+            points,
+            no_fix,
+            mpe_m: mean,
+            p50_m: percentile(&errors, 50.0),
+            p75_m: percentile(&errors, 75.0),
+            p80_m: percentile(&errors, 80.0),
+            p95_m: percentile(&errors, 95.0),
+            max_m: errors.last().copied(),
+            floor_accuracy: (floors > 0).then(|| floors_ok as f64 / floors as f64),
+        }
+    }
+}
+
+/// Mean compute time per task call, microseconds.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct MctUs {
+    pub gml: Option<f64>,
+    pub fusion: Option<f64>,
+}
+
+impl MctUs {
+    pub fn from_runs<'a>(runs: impl IntoIterator<Item = &'a LogRun> + Clone) -> MctUs {
+        let mean = |task: Task| {
+            let (mut s, mut n) = (0.0, 0usize);
+            for r in runs.clone() {
+                for (t, us) in &r.out.task_us {
+                    if *t == task {
+                        s += us;
+                        n += 1;
+                    }
+                }
+            }
+            (n > 0).then(|| s / n as f64)
+        };
+        MctUs {
+            gml: mean(Task::Ble),
+            fusion: mean(Task::Fusion),
+        }
+    }
+}
+
+/// The anomalies a log reader counted (non-zero ones matter).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct ReadSummary {
+    pub format: String,
+    pub events: u64,
+    pub malformed_skipped: u64,
+    pub late_dropped: u64,
+    pub duplicates_dropped: u64,
+    pub non_finite_dropped: u64,
+    pub truth_without_georef: u64,
+    pub gaps_over_threshold: u64,
+}
+
+impl From<&ReadReport> for ReadSummary {
+    fn from(r: &ReadReport) -> Self {
+        ReadSummary {
+            format: r.format.map_or("?", |f| f.name()).to_string(),
+            events: r.events.total(),
+            malformed_skipped: r.malformed_skipped,
+            late_dropped: r.late_dropped,
+            duplicates_dropped: r.duplicates_dropped,
+            non_finite_dropped: r.non_finite_dropped,
+            truth_without_georef: r.truth_without_georef,
+            gaps_over_threshold: r.gaps_over_threshold,
+        }
+    }
+}
+
+/// One log's row in metrics.json.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LogMetrics {
+    pub log: String,
+    #[serde(flatten)]
+    pub errors: ErrorStats,
+    /// Whether the engine started from the log's first truth point.
+    pub init_from_truth: bool,
+    pub duration_s: f64,
+    pub wall_s: f64,
+    pub steps: u64,
+    pub engine_no_fix_runs: u64,
+    pub read: ReadSummary,
+}
+
+/// One engine's object in metrics.json (DESIGN.md's keys plus `no_fix`,
+/// `init` and per-log rows).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct EngineMetrics {
+    pub engine: String,
+    pub logs: usize,
+    #[serde(flatten)]
+    pub errors: ErrorStats,
+    pub mct_us: MctUs,
+    /// Log time replayed per second of wall time (engine work only; parsing excluded).
+    pub realtime_factor: Option<f64>,
+    pub init: InitMode,
+    pub per_log: Vec<LogMetrics>,
+}
+
+impl EngineMetrics {
+    /// Aggregates the runs of one engine (`reads[i]` belongs to `runs[i]`).
+    pub fn from_runs(
+        engine: &str,
+        init: InitMode,
+        runs: &[LogRun],
+        reads: &[ReadSummary],
+    ) -> EngineMetrics {
+        let per_log = runs
+            .iter()
+            .zip(reads)
+            .map(|(r, read)| LogMetrics {
+                log: r.log.clone(),
+                errors: ErrorStats::from_points(&r.out.scored),
+                init_from_truth: r.init.is_some(),
+                duration_s: r.out.log_duration_s,
+                wall_s: r.out.wall_s,
+                steps: r.out.stats.steps,
+                engine_no_fix_runs: r.out.stats.no_fix,
+                read: read.clone(),
+            })
+            .collect();
+        let dur: f64 = runs.iter().map(|r| r.out.log_duration_s).sum();
+        let wall: f64 = runs.iter().map(|r| r.out.wall_s).sum();
+        EngineMetrics {
+            engine: engine.to_string(),
+            logs: runs.len(),
+            errors: ErrorStats::from_points(runs.iter().flat_map(|r| r.out.scored.iter())),
+            mct_us: MctUs::from_runs(runs),
+            realtime_factor: (wall > 0.0).then(|| dur / wall),
+            init,
+            per_log,
+        }
+    }
+
+    /// All finite errors (for the CDF).
+    pub fn errors_of(runs: &[LogRun]) -> Vec<f64> {
+        runs.iter()
+            .flat_map(|r| r.out.scored.iter())
+            .filter_map(|p| p.error_m())
+            .filter(|e| e.is_finite())
+            .collect()
+    }
+}
+
+/// Formats an optional number for the terminal table.
+pub fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or("-".to_string(), |x| format!("{x:.digits$}"))
+}
+
+#[cfg(test)]
+pub(crate) mod test_support {
+    //! A tiny engine and an open-floor site for harness tests.
+    use super::*;
+    use fpbp_core::engine::{EngineStats, Pose};
+    use fpbp_core::events::{BleObservation, SensorEvent};
+    use fpbp_core::map::{Feature, FloorMap};
+    use fpbp_core::site::SiteSpec;
+
+    /// Moves east at 1 m/s from its start (or has no fix without one); one fusion
+    /// task every 100 ms.
+    pub struct WalkEast {
+        pub start: Option<InitialPosition>,
+        pub t0: Option<i64>,
+        pub pose: Option<Pose>,
+        pub stats: EngineStats,
+    }
+
+    impl Engine for WalkEast {
+        fn name(&self) -> &'static str {
+            "walk-east"
+        }
+        fn on_sensor(&mut self, e: &SensorEvent) {
+            self.stats.sensor_events += 1;
+            self.t0.get_or_insert(e.t_ns);
+        }
+        fn on_ble(&mut self, _obs: &BleObservation) {
+            self.stats.ble_observations += 1;
+        }
+        fn run_task(&mut self, _task: Task, t_ns: i64) {
+            let (Some(s), Some(t0)) = (self.start, self.t0) else {
+                self.stats.no_fix += 1;
+                return;
+            };
+            let d = (t_ns - t0) as f64 * 1e-9;
+            self.pose = Some(Pose {
+                t_ns,
+                x_m: s.x_m + d,
+                y_m: s.y_m,
+                floor: s.floor,
+                heading_rad: 0.0,
+                accuracy_m: 1.0,
+            });
+        }
+        fn task_period_ns(&self, task: Task) -> Option<i64> {
+            (task == Task::Fusion).then_some(100_000_000)
+        }
+        fn pose(&self) -> Option<Pose> {
+            self.pose
+        }
+        fn stats(&self) -> EngineStats {
+            self.stats.clone()
+        }
+    }
+
+    pub fn builder(
+        name: &str,
+        _site: Arc<Site>,
+        _cfg: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> anyhow::Result<Box<dyn Engine>> {
+        match name {
+            "pdr" | "walk-east" => Ok(Box::new(WalkEast {
+                start: init,
+                t0: None,
+                pose: None,
+                stats: EngineStats::default(),
+            })),
+            other => anyhow::bail!("unknown engine `{other}`"),
+        }
+    }
+
+    /// A 30 x 10 m open floor (id 0) at 2 px/m.
+    pub fn site() -> Arc<Site> {
+        let spec: SiteSpec = serde_json::from_str(
+            r#"{"format":"fpbp-site","version":1,"name":"test","floors":[{"id":0,"open_area_m":[30,10]}]}"#,
+        )
+        .unwrap();
+        let (w, h) = (60, 20);
+        let f = (0..w * h)
+            .map(|k| {
+                let (i, j) = (k % w, k / w);
+                if i == 0 || j == 0 || i == w - 1 || j == h - 1 {
+                    Feature::Wall
+                } else {
+                    Feature::Walkable
+                }
+            })
+            .collect();
+        Arc::new(Site {
+            spec,
+            floors: vec![FloorMap::from_features(w, h, 2.0, f)],
+        })
+    }
+
+    /// A native log: accelerometer at 50 Hz for `secs`, truth every second along y = 5
+    /// moving east at 1 m/s from x = 2.
+    pub fn write_log(path: &Path, secs: i64) {
+        use fpbp_core::events::{SensorData, TruthPoint};
+        let mut w = fpbp_logs::NativeWriter::new(
+            std::fs::File::create(path).unwrap(),
+            &fpbp_logs::NativeHeader::new().with("test", "1"),
+        )
+        .unwrap();
+        for k in 0..secs * 50 {
+            let t = k * 20_000_000;
+            w.write(&LogEvent::Sensor(SensorEvent {
+                t_ns: t,
+                data: SensorData::Accelerometer([0.0, 0.0, 9.8]),
+            }))
+            .unwrap();
+            if k % 50 == 0 {
+                let s = (k / 50) as f64;
+                w.write(&LogEvent::Truth(TruthPoint {
+                    t_ns: t,
+                    x_m: 2.0 + s,
+                    y_m: 5.0,
+                    floor: None,
+                }))
+                .unwrap();
+            }
+        }
+        w.finish().unwrap();
+    }
+
+    pub fn tmp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("fpbp-cli-{}-{name}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::test_support::*;
+    use super::*;
+
+    #[test]
+    fn percentiles_interpolate_like_numpy() {
+        let v = [1.0, 2.0, 3.0, 4.0];
+        assert_eq!(percentile(&v, 50.0), Some(2.5));
+        assert_eq!(percentile(&v, 0.0), Some(1.0));
+        assert_eq!(percentile(&v, 100.0), Some(4.0));
+        assert!((percentile(&v, 80.0).unwrap() - 3.4).abs() < 1e-12);
+        assert_eq!(percentile(&[], 50.0), None);
+    }
+
+    #[test]
+    fn pdr_starts_from_first_truth_others_do_not_and_no_fix_is_counted() {
+        let d = tmp_dir("common");
+        let p = d.join("walk.log");
+        write_log(&p, 5);
+        let site = site();
+        let log = load_log(&p, &read_options(&site, None, true)).unwrap();
+        assert_eq!(log.report.events.truth, 5);
+        let cfg = EngineConfig::default();
+        // pdr: starts at the first truth point (not scored), tracks the walk exactly
+        // up to the 100 ms task grid.
+        let run = run_log(&builder, "pdr", &site, &cfg, InitMode::None, &log).unwrap();
+        assert!(run.init.is_some());
+        let m = EngineMetrics::from_runs(
+            "pdr",
+            InitMode::None,
+            std::slice::from_ref(&run),
+            &[ReadSummary::from(&log.report)],
+        );
+        assert_eq!(m.errors.points, 4);
+        assert_eq!(m.errors.no_fix, 0);
+        assert!(m.errors.max_m.unwrap() < 0.11, "{m:?}");
+        assert_eq!(m.errors.floor_accuracy, Some(1.0));
+        // Another engine without --init truth gets no start: every point is a no-fix.
+        let run = run_log(&builder, "walk-east", &site, &cfg, InitMode::None, &log).unwrap();
+        assert!(run.init.is_none());
+        let s = ErrorStats::from_points(&run.out.scored);
+        assert_eq!((s.points, s.no_fix, s.mpe_m), (5, 5, None));
+        // With --init truth it starts too.
+        let run = run_log(&builder, "walk-east", &site, &cfg, InitMode::Truth, &log).unwrap();
+        assert_eq!(ErrorStats::from_points(&run.out.scored).no_fix, 0);
+        std::fs::remove_dir_all(&d).ok();
+    }
+}

@@ -1,9 +1,318 @@
-//! `fpbp eval` (being implemented).
+//! `fpbp eval`: engines over logs -> DIR/metrics.json (DESIGN.md keys per
+//! engine, per-log rows), DIR/cdf.png, a progress bar and a table.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use serde::Serialize;
+
+use crate::common::{self, EngineBuilder, EngineMetrics, InitMode, LogRun, ReadSummary};
+use crate::plot;
+
+/// Which logs of the sorted list to evaluate (DESIGN.md's fixed split: sort by
+/// file name; even indices, from 0, calibrate; odd indices test).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Split {
+    Even,
+    Odd,
+    All,
+}
 
 /// Arguments of `fpbp eval`.
-#[derive(clap::Args)]
-pub struct Args {}
+#[derive(clap::Args, Debug, Clone)]
+pub struct Args {
+    /// Site file (site.json).
+    #[arg(long)]
+    pub site: PathBuf,
+    /// Log files (native, ILC or IPIN; gzip or plain).
+    #[arg(long, num_args = 1.., required = true)]
+    pub logs: Vec<PathBuf>,
+    /// Engine names, comma-separated.
+    #[arg(long, value_delimiter = ',', required = true)]
+    pub engine: Vec<String>,
+    /// Output folder (created).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Engine config JSON.
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// `truth`: every engine starts from each log's first truth point (`pdr` always does).
+    #[arg(long, value_enum, default_value = "none")]
+    pub init: InitMode,
+    /// Which logs of the name-sorted list: even or odd indices, or all.
+    #[arg(long, value_enum, default_value = "all")]
+    pub split: Split,
+    /// Seed of the engines' RNGs (overrides the config's).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Floor id of truth points whose log gives none.
+    #[arg(long, allow_hyphen_values = true)]
+    pub floor: Option<i32>,
+    /// Fail on the first malformed log line.
+    #[arg(long)]
+    pub strict: bool,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`fpbp eval` is not implemented yet")
+/// Applies the split to `logs` sorted by file name.
+pub fn select_logs(logs: &[PathBuf], split: Split) -> Vec<PathBuf> {
+    let mut v = logs.to_vec();
+    v.sort_by(|a, b| a.file_name().cmp(&b.file_name()).then_with(|| a.cmp(b)));
+    v.into_iter()
+        .enumerate()
+        .filter(|(i, _)| match split {
+            Split::Even => i % 2 == 0,
+            Split::Odd => i % 2 == 1,
+            Split::All => true,
+        })
+        .map(|(_, p)| p)
+        .collect()
+}
+
+#[derive(Serialize)]
+struct EvalMetrics<'a> {
+    format: &'static str,
+    version: u32,
+    site: String,
+    split: Split,
+    init: InitMode,
+    log_files: Vec<String>,
+    wall_s: f64,
+    engines: &'a [EngineMetrics],
+}
+
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let started = std::time::Instant::now();
+    let metrics = run_with(&args, &common::core_builder, true)?;
+    print_table(&metrics);
+    println!(
+        "wrote {} and {} ({:.1} s)",
+        args.out.join("metrics.json").display(),
+        args.out.join("cdf.png").display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+fn print_table(ms: &[EngineMetrics]) {
+    println!(
+        "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>10} {:>10} {:>9}",
+        "engine",
+        "logs",
+        "points",
+        "no_fix",
+        "mpe_m",
+        "p50_m",
+        "p80_m",
+        "p95_m",
+        "max_m",
+        "floor",
+        "mct_gml",
+        "mct_fus",
+        "realtime"
+    );
+    for m in ms {
+        let e = &m.errors;
+        println!(
+            "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>10} {:>10} {:>9}",
+            m.engine,
+            m.logs,
+            e.points,
+            e.no_fix,
+            common::fmt_opt(e.mpe_m, 2),
+            common::fmt_opt(e.p50_m, 2),
+            common::fmt_opt(e.p80_m, 2),
+            common::fmt_opt(e.p95_m, 2),
+            common::fmt_opt(e.max_m, 2),
+            common::fmt_opt(e.floor_accuracy, 2),
+            common::fmt_opt(m.mct_us.gml, 1),
+            common::fmt_opt(m.mct_us.fusion, 1),
+            common::fmt_opt(m.realtime_factor, 0),
+        );
+    }
+}
+
+/// Runs the evaluation with `build`, writes metrics.json and cdf.png, returns the metrics.
+pub fn run_with(
+    args: &Args,
+    build: &EngineBuilder,
+    progress: bool,
+) -> anyhow::Result<Vec<EngineMetrics>> {
+    let started = std::time::Instant::now();
+    let site = common::load_site(&args.site)?;
+    let cfg = common::load_config(args.config.as_deref(), args.seed)?;
+    let opts = common::read_options(&site, args.floor, args.strict);
+    let logs = select_logs(&args.logs, args.split);
+    if logs.is_empty() {
+        bail!("no logs left after --split {:?}", args.split);
+    }
+    let engines: Vec<String> = args
+        .engine
+        .iter()
+        .map(|e| e.trim().to_string())
+        .filter(|e| !e.is_empty())
+        .collect();
+    if engines.is_empty() {
+        bail!("--engine: no engine named");
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let bar = if progress {
+        indicatif::ProgressBar::new((logs.len() * engines.len()) as u64)
+    } else {
+        indicatif::ProgressBar::hidden()
+    };
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let mut runs: Vec<Vec<LogRun>> = engines.iter().map(|_| Vec::new()).collect();
+    let mut reads: Vec<ReadSummary> = Vec::new();
+    for path in &logs {
+        bar.set_message(format!("reading {}", short(path)));
+        let log = common::load_log(path, &opts)?;
+        reads.push(ReadSummary::from(&log.report));
+        for (i, e) in engines.iter().enumerate() {
+            bar.set_message(format!("{e} on {}", short(path)));
+            runs[i].push(common::run_log(build, e, &site, &cfg, args.init, &log)?);
+            bar.inc(1);
+        }
+    }
+    bar.finish_and_clear();
+    let metrics: Vec<EngineMetrics> = engines
+        .iter()
+        .zip(&runs)
+        .map(|(e, r)| EngineMetrics::from_runs(e, args.init, r, &reads))
+        .collect();
+    let doc = EvalMetrics {
+        format: "fpbp-eval-metrics",
+        version: 1,
+        site: args.site.display().to_string(),
+        split: args.split,
+        init: args.init,
+        log_files: logs.iter().map(|p| p.display().to_string()).collect(),
+        wall_s: started.elapsed().as_secs_f64(),
+        engines: &metrics,
+    };
+    let mp = args.out.join("metrics.json");
+    std::fs::write(&mp, serde_json::to_string_pretty(&doc)? + "\n")
+        .with_context(|| format!("cannot write {}", mp.display()))?;
+    let series: Vec<(String, Vec<f64>)> = engines
+        .iter()
+        .zip(&runs)
+        .map(|(e, r)| (e.clone(), EngineMetrics::errors_of(r)))
+        .collect();
+    let title = format!(
+        "error CDF, {} logs, init {:?}, split {:?}",
+        logs.len(),
+        args.init,
+        args.split
+    )
+    .to_lowercase();
+    plot::cdf_png(&args.out.join("cdf.png"), &title, &series)?;
+    Ok(metrics)
+}
+
+fn short(p: &Path) -> String {
+    p.file_name().map_or_else(
+        || p.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::common::test_support::*;
+
+    #[test]
+    fn split_follows_the_sorted_file_names() {
+        let logs: Vec<PathBuf> = ["d/c.txt", "a/b.txt", "z/a.txt", "d.txt"]
+            .iter()
+            .map(PathBuf::from)
+            .collect();
+        let names = |s| {
+            select_logs(&logs, s)
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            names(Split::All),
+            ["z/a.txt", "a/b.txt", "d/c.txt", "d.txt"]
+        );
+        assert_eq!(names(Split::Even), ["z/a.txt", "d/c.txt"]);
+        assert_eq!(names(Split::Odd), ["a/b.txt", "d.txt"]);
+    }
+
+    #[test]
+    fn eval_writes_metrics_with_design_keys_and_cdf() {
+        let d = tmp_dir("eval");
+        let site_path = d.join("site.json");
+        std::fs::write(&site_path, r#"{"format":"fpbp-site","version":1,"name":"t","floors":[{"id":0,"open_area_m":[30,10]}]}"#).unwrap();
+        let logs: Vec<PathBuf> = (0..3).map(|k| d.join(format!("walk{k}.log"))).collect();
+        for (k, l) in logs.iter().enumerate() {
+            write_log(l, 4 + k as i64);
+        }
+        let args = Args {
+            site: site_path,
+            logs: logs.clone(),
+            engine: vec!["pdr".into(), "walk-east".into()],
+            out: d.join("out"),
+            config: None,
+            init: InitMode::None,
+            split: Split::All,
+            seed: None,
+            floor: None,
+            strict: false,
+        };
+        let ms = run_with(&args, &builder, false).unwrap();
+        assert_eq!(ms.len(), 2);
+        // pdr: 4+5+6 truth points minus the 3 start points, all with a fix.
+        assert_eq!(
+            (ms[0].logs, ms[0].errors.points, ms[0].errors.no_fix),
+            (3, 12, 0)
+        );
+        // walk-east has no start without --init truth: 15 points, all no-fix.
+        assert_eq!((ms[1].errors.points, ms[1].errors.no_fix), (15, 15));
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("out/metrics.json")).unwrap())
+                .unwrap();
+        let e0 = &json["engines"][0];
+        for k in [
+            "engine",
+            "logs",
+            "points",
+            "mpe_m",
+            "p50_m",
+            "p75_m",
+            "p80_m",
+            "p95_m",
+            "max_m",
+            "floor_accuracy",
+            "realtime_factor",
+            "no_fix",
+        ] {
+            assert!(e0.get(k).is_some(), "missing {k}");
+        }
+        assert!(e0["mct_us"].get("gml").is_some() && e0["mct_us"]["fusion"].as_f64().is_some());
+        assert_eq!(e0["per_log"].as_array().unwrap().len(), 3);
+        assert_eq!(e0["per_log"][0]["log"], "walk0.log");
+        assert!(image::open(d.join("out/cdf.png")).is_ok());
+        // The odd split keeps one log.
+        let ms = run_with(
+            &Args {
+                split: Split::Odd,
+                out: d.join("odd"),
+                ..args.clone()
+            },
+            &builder,
+            false,
+        )
+        .unwrap();
+        assert_eq!(ms[0].per_log.len(), 1);
+        assert_eq!(ms[0].per_log[0].log, "walk1.log");
+        std::fs::remove_dir_all(&d).ok();
+    }
 }

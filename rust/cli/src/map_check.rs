@@ -1,9 +1,273 @@
-//! `fpbp map_check` (being implemented).
+//! `fpbp map check SITE.json --out DIR`: validates a site, prints its
+//! figures per floor and writes DIR/overlay.png (first floor) plus
+//! DIR/overlay-floor-ID.png for every further floor.
 
-/// Arguments of `fpbp map_check`.
+use std::path::PathBuf;
+
+use anyhow::Context;
+use fpbp_core::Vec2;
+use fpbp_core::map::{Feature, FloorMap};
+use fpbp_core::site::Site;
+use image::{Rgba, RgbaImage};
+
+use crate::site_io::load_site;
+
+/// Arguments of `fpbp map check`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// The site file (site.json).
+    pub site: PathBuf,
+    /// Output folder for overlay.png (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Logs (native, ILC, IPIN; plain or gzip) whose truth points are drawn
+    /// in magenta on the floor they belong to (truth without a floor goes on
+    /// the first floor).
+    #[arg(long, num_args = 1..)]
+    pub truth: Vec<PathBuf>,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`fpbp map_check` is not implemented yet")
+pub fn run(args: Args) -> anyhow::Result<()> {
+    let site = load_site(&args.site)?;
+    println!(
+        "site {} ({}): {} floor(s), {} beacon(s), grid interval {} m",
+        site.spec.name,
+        args.site.display(),
+        site.floors.len(),
+        site.spec.beacons.len(),
+        site.spec.grid_interval_m
+    );
+    let mut truth: Vec<(Option<i32>, f64, f64)> = Vec::new();
+    for log in &args.truth {
+        let opts = fpbp_logs::ReadOptions {
+            site_georef: site.spec.georef.map(|g| (g, site.spec.map_from_enu_rad)),
+            ..Default::default()
+        };
+        let (events, _) = fpbp_logs::read_all(log, &opts)
+            .with_context(|| format!("cannot read truth from {}", log.display()))?;
+        let before = truth.len();
+        truth.extend(events.iter().filter_map(|e| match e {
+            fpbp_core::events::LogEvent::Truth(t) => Some((t.floor, t.x_m, t.y_m)),
+            _ => None,
+        }));
+        println!("truth {}: {} point(s)", log.display(), truth.len() - before);
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    for (k, (fs, map)) in site.spec.floors.iter().zip(&site.floors).enumerate() {
+        let rep = map.build_report();
+        let beacons = site
+            .spec
+            .beacons
+            .iter()
+            .filter(|b| b.floor == fs.id)
+            .count();
+        println!("floor {} {:?}:", fs.id, fs.name);
+        println!(
+            "  size              {:.2} m x {:.2} m ({} x {} px, r = {} px/m)",
+            map.width_m(),
+            map.height_m(),
+            map.width_px(),
+            map.height_px(),
+            map.pixels_per_meter()
+        );
+        if rep.downsample_factor > 1 {
+            println!(
+                "  downsampled       x{} from {} x {} px",
+                rep.downsample_factor, rep.source_width_px, rep.source_height_px
+            );
+        }
+        println!("  walkable area     {:.1} m2", map.walkable_area_m2());
+        println!(
+            "  rooms             {} (largest {:.1} m2, smallest {:.2} m2)",
+            map.rooms().len(),
+            map.rooms().iter().map(|r| r.area_m2).fold(0.0, f64::max),
+            map.rooms()
+                .iter()
+                .map(|r| r.area_m2)
+                .fold(f64::INFINITY, f64::min)
+        );
+        println!("  door pixels       {}", map.door_pixel_count());
+        println!(
+            "  grid points       {} (I_M = {} m)",
+            map.grid().len(),
+            map.grid_interval_m()
+        );
+        println!("  beacons           {beacons}");
+        println!(
+            "  unclassified px   {} ({:.3}%)",
+            rep.unclassified_count,
+            rep.unclassified_fraction * 100.0
+        );
+        let pts: Vec<(f64, f64)> = truth
+            .iter()
+            .filter(|(f, _, _)| f.unwrap_or(site.default_floor()) == fs.id)
+            .map(|&(_, x, y)| (x, y))
+            .collect();
+        if !args.truth.is_empty() {
+            let off = pts
+                .iter()
+                .filter(|&&(x, y)| !map.is_walkable(Vec2::new(x, y)))
+                .count();
+            println!("  truth points      {} ({} off Walkable)", pts.len(), off);
+        }
+        let img = draw_overlay(&site, fs.id, &pts);
+        let name = if k == 0 {
+            "overlay.png".to_string()
+        } else {
+            format!("overlay-floor-{}.png", fs.id)
+        };
+        let path = args.out.join(name);
+        img.save(&path)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        println!("  overlay           {}", path.display());
+    }
+    Ok(())
+}
+
+/// A distinct pastel colour per room id (golden-angle hue walk).
+fn room_colour(id: u32) -> Rgba<u8> {
+    let h = (id as f64 * 0.618_033_988_75).fract() * 6.0;
+    let (s, v) = (0.45, 0.97);
+    let c = v * s;
+    let x = c * (1.0 - ((h % 2.0) - 1.0).abs());
+    let (r, g, b) = match h as u32 {
+        0 => (c, x, 0.0),
+        1 => (x, c, 0.0),
+        2 => (0.0, c, x),
+        3 => (0.0, x, c),
+        4 => (x, 0.0, c),
+        _ => (c, 0.0, x),
+    };
+    let m = v - c;
+    let to = |u: f64| ((u + m) * 255.0).round().clamp(0.0, 255.0) as u8;
+    Rgba([to(r), to(g), to(b), 255])
+}
+
+fn put(img: &mut RgbaImage, x: i64, y: i64, c: Rgba<u8>) {
+    if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
+        img.put_pixel(x as u32, y as u32, c);
+    }
+}
+
+fn disc(img: &mut RgbaImage, q: Vec2, rad: f64, c: Rgba<u8>) {
+    let r = rad.ceil() as i64;
+    let (cx, cy) = (q.x.floor() as i64, q.y.floor() as i64);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if ((dx * dx + dy * dy) as f64) <= rad * rad {
+                put(img, cx + dx, cy + dy, c);
+            }
+        }
+    }
+}
+
+fn line(img: &mut RgbaImage, a: Vec2, b: Vec2, c: Rgba<u8>) {
+    let n = ((b - a).norm().ceil() as usize).max(1) * 2;
+    for k in 0..=n {
+        let p = a + (b - a) * (k as f64 / n as f64);
+        put(img, p.x.floor() as i64, p.y.floor() as i64, c);
+    }
+}
+
+/// One sample per door side: for every 4-connected Door component, its
+/// pixels with a Walkable 4-neighbour are split by the sign of their normal
+/// against the component's first normal, and the middle pixel of each side
+/// (in scan order) is returned with its normal (MCS).
+fn door_normal_samples(map: &FloorMap) -> Vec<(usize, usize, Vec2)> {
+    let (w, h) = (map.width_px(), map.height_px());
+    let mut seen = vec![false; w * h];
+    let mut out = Vec::new();
+    for start in 0..w * h {
+        let (si, sj) = ((start % w) as isize, (start / w) as isize);
+        if seen[start] || map.feature_px(si, sj) != Feature::Door {
+            continue;
+        }
+        seen[start] = true;
+        let mut stack = vec![start];
+        let mut sides: [Vec<(usize, usize, Vec2)>; 2] = [Vec::new(), Vec::new()];
+        let mut first: Option<Vec2> = None;
+        while let Some(k) = stack.pop() {
+            let (i, j) = ((k % w) as isize, (k / w) as isize);
+            let mut edge = false;
+            for (dx, dy) in [(1, 0), (-1, 0), (0, 1), (0, -1)] {
+                let (ni, nj) = (i + dx, j + dy);
+                match map.feature_px(ni, nj) {
+                    Feature::Door => {
+                        let m = nj as usize * w + ni as usize;
+                        if !seen[m] {
+                            seen[m] = true;
+                            stack.push(m);
+                        }
+                    }
+                    Feature::Walkable => edge = true,
+                    Feature::Wall => {}
+                }
+            }
+            if !edge {
+                continue;
+            }
+            let q = Vec2::new(i as f64 + 0.5, j as f64 + 0.5);
+            if let Some(n) = map.normal_at(map.ics_to_mcs(q)) {
+                let f = *first.get_or_insert(n);
+                let side = usize::from(n.dot(&f) < 0.0);
+                sides[side].push((i as usize, j as usize, n));
+            }
+        }
+        for mut side in sides {
+            if side.is_empty() {
+                continue;
+            }
+            side.sort_by_key(|&(i, j, _)| (j, i));
+            out.push(side[side.len() / 2]);
+        }
+    }
+    out
+}
+
+/// The overlay of floor `floor` at the plan's resolution: rooms in distinct
+/// colours, walls dark grey, doors red, GML grid points as dark dots,
+/// beacons as blue discs, door normals (one per door side) as green 1 m lines, and
+/// `extra_points` (MCS metres, e.g. truth) as magenta dots. An unknown floor
+/// gives a 1 x 1 image.
+pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> RgbaImage {
+    let Some(map) = site.floor(floor) else {
+        return RgbaImage::new(1, 1);
+    };
+    let (w, h) = (map.width_px(), map.height_px());
+    let mut img = RgbaImage::new(w as u32, h as u32);
+    for j in 0..h {
+        for i in 0..w {
+            let c = match map.feature_px(i as isize, j as isize) {
+                Feature::Wall => Rgba([40, 40, 40, 255]),
+                Feature::Door => Rgba([230, 20, 20, 255]),
+                Feature::Walkable => map
+                    .room_of_px(i, j)
+                    .map(room_colour)
+                    .unwrap_or(Rgba([255, 255, 255, 255])),
+            };
+            img.put_pixel(i as u32, j as u32, c);
+        }
+    }
+    let r = map.pixels_per_meter();
+    for g in map.grid() {
+        let q = map.mcs_to_ics(*g);
+        disc(&mut img, q, (0.06 * r).max(0.5), Rgba([60, 60, 90, 255]));
+    }
+    // Door normals: one per door side, 1 m long.
+    for (i, j, n) in door_normal_samples(map) {
+        let q = Vec2::new(i as f64 + 0.5, j as f64 + 0.5);
+        // MCS normal -> ICS direction (flip y).
+        let d = Vec2::new(n.x, -n.y) * r;
+        line(&mut img, q, q + d, Rgba([0, 150, 0, 255]));
+    }
+    for b in site.spec.beacons.iter().filter(|b| b.floor == floor) {
+        let q = map.mcs_to_ics(Vec2::new(b.x_m, b.y_m));
+        disc(&mut img, q, (0.3 * r).max(2.0), Rgba([20, 60, 220, 255]));
+    }
+    for &(x, y) in extra_points {
+        let q = map.mcs_to_ics(Vec2::new(x, y));
+        disc(&mut img, q, (0.15 * r).max(1.0), Rgba([220, 0, 220, 255]));
+    }
+    img
 }

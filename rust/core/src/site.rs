@@ -5,7 +5,15 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::map::FloorMap;
+use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
+use crate::{Error, Result};
+
+/// The `format` value of a site file.
+pub const SITE_FORMAT: &str = "fpbp-site";
+/// The site-file version this reader knows.
+pub const SITE_VERSION: u32 = 1;
+/// Resolution of an open floor's generated plan when the floor gives none, px/m.
+pub const OPEN_FLOOR_PIXELS_PER_METER: f64 = 10.0;
 
 /// site.json as written on disk.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -39,7 +47,7 @@ pub struct SiteSpec {
 }
 
 fn default_grid_interval_m() -> f64 {
-    1.0
+    DEFAULT_GRID_INTERVAL_M
 }
 
 /// Colours (RGB) of the stylized plan and the tolerance of the classifier.
@@ -147,3 +155,428 @@ impl Site {
         self.spec.floors.first().map(|f| f.id).unwrap_or(0)
     }
 }
+
+fn site_err(file: &str, field: impl Into<String>, msg: impl Into<String>) -> Error {
+    Error::Site {
+        file: file.to_string(),
+        field: field.into(),
+        msg: msg.into(),
+    }
+}
+
+impl SiteSpec {
+    /// Parses site.json bytes. Syntax errors, unknown and missing fields and
+    /// wrong types become [`Error::Site`] naming `file_name`, the JSON path of
+    /// the field (e.g. `floors[0].pixels_per_meter`) and the line/column.
+    /// Does not validate ranges: [`Site::build`] does.
+    pub fn from_json(bytes: &[u8], file_name: &str) -> Result<SiteSpec> {
+        serde_json::from_slice(bytes).map_err(|e| {
+            let msg = e.to_string();
+            let field = json_path::path_at_error(bytes, e.line(), e.column(), &msg);
+            site_err(file_name, field, msg)
+        })
+    }
+
+    /// Serializes as pretty JSON (what the generators write).
+    pub fn to_json_pretty(&self) -> String {
+        // Serializing plain data with finite or non-finite f64 cannot fail
+        // except on non-finite floats, which serde_json writes as null.
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Checks every field that does not need the plan images. `file` names
+    /// the site file in errors.
+    pub fn validate(&self, file: &str) -> Result<()> {
+        if self.format != SITE_FORMAT {
+            return Err(site_err(
+                file,
+                "format",
+                format!("must be \"{SITE_FORMAT}\", got \"{}\"", self.format),
+            ));
+        }
+        if self.version != SITE_VERSION {
+            return Err(site_err(
+                file,
+                "version",
+                format!(
+                    "this reader knows version {SITE_VERSION}, got {}",
+                    self.version
+                ),
+            ));
+        }
+        if !self.map_from_enu_rad.is_finite() {
+            return Err(site_err(file, "map_from_enu_rad", "must be finite"));
+        }
+        let l = &self.legend;
+        if !(l.tolerance >= 0.0 && l.tolerance.is_finite()) {
+            return Err(site_err(
+                file,
+                "legend.tolerance",
+                "must be >= 0 and finite",
+            ));
+        }
+        if !(0.0..=1.0).contains(&l.max_unclassified_fraction) {
+            return Err(site_err(
+                file,
+                "legend.max_unclassified_fraction",
+                "must be in [0, 1]",
+            ));
+        }
+        if l.wall == l.door || l.wall == l.walkable || l.door == l.walkable {
+            return Err(site_err(
+                file,
+                "legend",
+                "wall, door and walkable colours must differ",
+            ));
+        }
+        if !(self.grid_interval_m > 0.0 && self.grid_interval_m.is_finite()) {
+            return Err(site_err(
+                file,
+                "grid_interval_m",
+                format!("must be > 0, got {}", self.grid_interval_m),
+            ));
+        }
+        if self.floors.is_empty() {
+            return Err(site_err(file, "floors", "at least one floor is required"));
+        }
+        for (k, f) in self.floors.iter().enumerate() {
+            let at = |name: &str| format!("floors[{k}].{name}");
+            if self.floors[..k].iter().any(|g| g.id == f.id) {
+                return Err(site_err(
+                    file,
+                    at("id"),
+                    format!("duplicate floor id {}", f.id),
+                ));
+            }
+            if let Some(r) = f.pixels_per_meter
+                && !(r > 0.0 && r.is_finite())
+            {
+                return Err(site_err(
+                    file,
+                    at("pixels_per_meter"),
+                    format!("must be > 0, got {r}"),
+                ));
+            }
+            if let Some(t) = f.target_pixels_per_meter
+                && !(t > 0.0 && t.is_finite())
+            {
+                return Err(site_err(
+                    file,
+                    at("target_pixels_per_meter"),
+                    format!("must be > 0, got {t}"),
+                ));
+            }
+            if !f.height_m.is_finite() {
+                return Err(site_err(file, at("height_m"), "must be finite"));
+            }
+            match (&f.plan, f.open_area_m) {
+                (Some(p), None) => {
+                    if p.trim().is_empty() {
+                        return Err(site_err(file, at("plan"), "empty path"));
+                    }
+                    if f.pixels_per_meter.is_none() {
+                        return Err(site_err(
+                            file,
+                            at("pixels_per_meter"),
+                            "required when `plan` is given",
+                        ));
+                    }
+                }
+                (None, Some([w, h])) => {
+                    if !(w > 0.0 && h > 0.0 && w.is_finite() && h.is_finite()) {
+                        return Err(site_err(
+                            file,
+                            at("open_area_m"),
+                            format!("must be > 0, got [{w}, {h}]"),
+                        ));
+                    }
+                    let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
+                    if w * r > 20_000.0 || h * r > 20_000.0 {
+                        return Err(site_err(
+                            file,
+                            at("open_area_m"),
+                            "too large (over 20000 px a side)",
+                        ));
+                    }
+                }
+                (Some(_), Some(_)) => {
+                    return Err(site_err(
+                        file,
+                        at("open_area_m"),
+                        "give either `plan` or `open_area_m`, not both",
+                    ));
+                }
+                (None, None) => {
+                    return Err(site_err(
+                        file,
+                        at("plan"),
+                        "missing: give `plan` (a PNG) or `open_area_m`",
+                    ));
+                }
+            }
+        }
+        for (k, b) in self.beacons.iter().enumerate() {
+            let at = |name: &str| format!("beacons[{k}].{name}");
+            if b.id.trim().is_empty() {
+                return Err(site_err(file, at("id"), "empty beacon id"));
+            }
+            if self.beacons[..k].iter().any(|c| c.id == b.id) {
+                return Err(site_err(
+                    file,
+                    at("id"),
+                    format!("duplicate beacon id {}", b.id),
+                ));
+            }
+            if !self.floors.iter().any(|f| f.id == b.floor) {
+                return Err(site_err(
+                    file,
+                    at("floor"),
+                    format!("no floor with id {}", b.floor),
+                ));
+            }
+            for (name, v) in [("x_m", b.x_m), ("y_m", b.y_m), ("z_m", b.z_m)] {
+                if !v.is_finite() {
+                    return Err(site_err(file, at(name), "must be finite"));
+                }
+            }
+            if !(b.rssi_1m_dbm.is_finite() && b.rssi_1m_dbm < 0.0) {
+                return Err(site_err(
+                    file,
+                    at("rssi_1m_dbm"),
+                    format!("must be a negative dBm value, got {}", b.rssi_1m_dbm),
+                ));
+            }
+            if !(b.path_loss_exponent > 0.0 && b.path_loss_exponent.is_finite()) {
+                return Err(site_err(
+                    file,
+                    at("path_loss_exponent"),
+                    format!("must be > 0, got {}", b.path_loss_exponent),
+                ));
+            }
+        }
+        if let Some(g) = &self.georef {
+            if !(-90.0..=90.0).contains(&g.lat_deg) {
+                return Err(site_err(file, "georef.lat_deg", "must be in [-90, 90]"));
+            }
+            if !(-180.0..=180.0).contains(&g.lon_deg) {
+                return Err(site_err(file, "georef.lon_deg", "must be in [-180, 180]"));
+            }
+            if !(g.x_m.is_finite() && g.y_m.is_finite()) {
+                return Err(site_err(file, "georef.x_m", "x_m and y_m must be finite"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The map of an open floor: a walkable `w` x `h` m rectangle at `r` px/m
+/// whose outermost pixel ring is Wall.
+pub fn open_floor_map(w_m: f64, h_m: f64, r: f64, grid_interval_m: f64) -> FloorMap {
+    let w = ((w_m * r).round() as usize).max(3);
+    let h = ((h_m * r).round() as usize).max(3);
+    let mut f = vec![Feature::Walkable; w * h];
+    for j in 0..h {
+        for i in 0..w {
+            if i == 0 || j == 0 || i == w - 1 || j == h - 1 {
+                f[j * w + i] = Feature::Wall;
+            }
+        }
+    }
+    FloorMap::from_features_with_grid(w, h, r, f, grid_interval_m)
+}
+
+impl Site {
+    /// Validates `spec` and builds one map per floor. `site_file` names the
+    /// site in errors; `load_plan` returns the bytes of a plan path as written
+    /// in the spec (the caller resolves it relative to the site file).
+    /// Checks: format/version, ranges ([`SiteSpec::validate`]), each plan
+    /// readable and a PNG with few unclassified pixels and some Walkable
+    /// pixels, each beacon inside its floor's plan and not inside a Wall.
+    pub fn build(
+        spec: SiteSpec,
+        site_file: &str,
+        load_plan: &mut dyn FnMut(&str) -> std::io::Result<Vec<u8>>,
+    ) -> Result<Site> {
+        spec.validate(site_file)?;
+        let mut floors = Vec::with_capacity(spec.floors.len());
+        for (k, f) in spec.floors.iter().enumerate() {
+            let map = match (&f.plan, f.open_area_m) {
+                (Some(path), _) => {
+                    let field = format!("floors[{k}].plan");
+                    let bytes = load_plan(path).map_err(|e| {
+                        site_err(site_file, &field, format!("cannot read plan {path}: {e}"))
+                    })?;
+                    let plan = classify_png(&bytes, &spec.legend, path)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
+                    let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
+                    let kf = f
+                        .target_pixels_per_meter
+                        .map(|t| FloorMap::downsample_factor(r, t))
+                        .unwrap_or(1);
+                    let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
+                    if map.walkable_pixel_count() == 0 {
+                        return Err(site_err(
+                            site_file,
+                            field,
+                            format!(
+                                "plan {path} has no Walkable pixels (legend.walkable = {:?})",
+                                spec.legend.walkable
+                            ),
+                        ));
+                    }
+                    map
+                }
+                (None, Some([w, h])) => open_floor_map(
+                    w,
+                    h,
+                    f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER),
+                    spec.grid_interval_m,
+                ),
+                (None, None) => {
+                    return Err(site_err(site_file, format!("floors[{k}].plan"), "missing"));
+                }
+            };
+            floors.push(map);
+        }
+        for (k, b) in spec.beacons.iter().enumerate() {
+            let Some(fi) = spec.floors.iter().position(|f| f.id == b.floor) else {
+                return Err(site_err(
+                    site_file,
+                    format!("beacons[{k}].floor"),
+                    "unknown floor",
+                ));
+            };
+            let map = &floors[fi];
+            let p = crate::Vec2::new(b.x_m, b.y_m);
+            if map.pixel_of(p).is_none() {
+                return Err(site_err(
+                    site_file,
+                    format!("beacons[{k}]"),
+                    format!(
+                        "beacon {} at ({}, {}) m lies outside floor {}'s plan [0, {:.2}] x [0, {:.2}] m",
+                        b.id,
+                        b.x_m,
+                        b.y_m,
+                        b.floor,
+                        map.width_m(),
+                        map.height_m()
+                    ),
+                ));
+            }
+            if map.feature(p) == Feature::Wall {
+                return Err(site_err(
+                    site_file,
+                    format!("beacons[{k}]"),
+                    format!(
+                        "beacon {} at ({}, {}) m lies inside a Wall",
+                        b.id, b.x_m, b.y_m
+                    ),
+                ));
+            }
+        }
+        Ok(Site { spec, floors })
+    }
+}
+
+mod json_path {
+    //! The JSON path (`floors[0].pixels_per_meter`) at a serde_json error
+    //! position, by scanning the text up to it.
+
+    enum Frame {
+        Object { key: Option<String>, want_key: bool },
+        Array { index: usize },
+    }
+
+    fn backticked(msg: &str, prefix: &str) -> Option<String> {
+        let rest = &msg[msg.find(prefix)? + prefix.len()..];
+        let end = rest.find('`')?;
+        Some(rest[..end].to_string())
+    }
+
+    /// Path of the value being read at (line, column) (1-based, bytes).
+    pub(super) fn path_at_error(bytes: &[u8], line: usize, column: usize, msg: &str) -> String {
+        // Byte offset of (line, column).
+        let mut off = 0usize;
+        let mut l = 1usize;
+        while off < bytes.len() && l < line {
+            if bytes[off] == b'\n' {
+                l += 1;
+            }
+            off += 1;
+        }
+        let end = (off + column).min(bytes.len());
+        let mut stack: Vec<Frame> = Vec::new();
+        let mut i = 0usize;
+        while i < end {
+            match bytes[i] {
+                b'{' => stack.push(Frame::Object {
+                    key: None,
+                    want_key: true,
+                }),
+                b'[' => stack.push(Frame::Array { index: 0 }),
+                // The error of a missing field is reported at the closing
+                // brace: keep that object on the stack.
+                b'}' | b']' if i + 1 < end => {
+                    stack.pop();
+                }
+                b',' => match stack.last_mut() {
+                    Some(Frame::Object { want_key, .. }) => *want_key = true,
+                    Some(Frame::Array { index }) => *index += 1,
+                    None => {}
+                },
+                b'"' => {
+                    let start = i + 1;
+                    i += 1;
+                    while i < bytes.len() && bytes[i] != b'"' {
+                        if bytes[i] == b'\\' {
+                            i += 1;
+                        }
+                        i += 1;
+                    }
+                    if let Some(Frame::Object { key, want_key }) = stack.last_mut()
+                        && *want_key
+                    {
+                        *key = Some(
+                            String::from_utf8_lossy(&bytes[start..i.min(bytes.len())]).into_owned(),
+                        );
+                        *want_key = false;
+                    }
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        let missing = backticked(msg, "missing field `");
+        let mut path = String::new();
+        let n = stack.len();
+        for (k, f) in stack.iter().enumerate() {
+            match f {
+                Frame::Object { key, .. } => {
+                    if k + 1 == n && missing.is_some() {
+                        break;
+                    }
+                    if let Some(key) = key {
+                        if !path.is_empty() {
+                            path.push('.');
+                        }
+                        path.push_str(key);
+                    }
+                }
+                Frame::Array { index } => path.push_str(&format!("[{index}]")),
+            }
+        }
+        if let Some(m) = missing {
+            if !path.is_empty() {
+                path.push('.');
+            }
+            path.push_str(&m);
+        }
+        if path.is_empty() {
+            path = "(top level)".into();
+        }
+        path
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -6,7 +6,7 @@ use super::{Engine, EngineConfig, InitialPosition};
 use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
-pub const ENGINE_NAMES: &[&str] = &[];
+pub const ENGINE_NAMES: &[&str] = &["pdr", "gml", "trilat", "frbw", "ml", "wcentroid"];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
@@ -17,9 +17,18 @@ pub fn build_engine(
     init: Option<InitialPosition>,
 ) -> Result<Box<dyn Engine>> {
     config.validate()?;
-    let _ = (&site, init);
-    Err(Error::UnknownEngine(
-        name.to_string(),
-        ENGINE_NAMES.join(", "),
-    ))
+    if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
+        return Ok(Box::new(crate::engines::ble_only::BleOnlyEngine::new(
+            kind, site, config, init,
+        )));
+    }
+    match name {
+        "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
+            site, config, init,
+        )?)),
+        _ => Err(Error::UnknownEngine(
+            name.to_string(),
+            ENGINE_NAMES.join(", "),
+        )),
+    }
 }

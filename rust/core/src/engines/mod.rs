@@ -1,1 +1,4 @@
 //! The engines, one module each (see `engine::factory` for the names).
+
+pub mod ble_only;
+pub mod pdr;

@@ -1,0 +1,106 @@
+//! Weighted-centroid estimators: FRBW and the plain weighted centroid.
+
+use crate::Vec2;
+use crate::ble::config::BleConfig;
+use crate::ble::frontend::FilteredBeacon;
+use crate::ble::positioner::{BlePositioner, finite};
+
+/// Centroid of the `top_n` strongest beacons (0 = all) weighted by
+/// range^-exponent, ranges from the filtered RSSI (floored at `min_d_m`).
+pub fn weighted_centroid(
+    beacons: &[FilteredBeacon],
+    top_n: usize,
+    exponent: f64,
+    min_d_m: f64,
+) -> Option<Vec2> {
+    let n = if top_n == 0 {
+        beacons.len()
+    } else {
+        top_n.min(beacons.len())
+    };
+    if n == 0 {
+        return None;
+    }
+    let mut sum = Vec2::zeros();
+    let mut wsum = 0.0;
+    for b in &beacons[..n] {
+        let d = b.range_m().max(min_d_m);
+        let w = d.powf(-exponent);
+        if w.is_finite() && w > 0.0 {
+            sum += b.pos * w;
+            wsum += w;
+        }
+    }
+    if wsum > 0.0 { finite(sum / wsum) } else { None }
+}
+
+/// FRBW (Alsmadi et al. 2021, as configured in FP-BP Sec. V): weighted
+/// centroid of the 3 strongest beacons with weights d^-g, g = 5. Needs 3 beacons.
+#[derive(Debug, Clone)]
+pub struct Frbw {
+    top_n: usize,
+    g: f64,
+    min_d_m: f64,
+}
+
+impl Frbw {
+    pub fn new(cfg: &BleConfig) -> Self {
+        Frbw {
+            top_n: cfg.frbw.top_n,
+            g: cfg.frbw.g,
+            min_d_m: cfg.min_distance_m,
+        }
+    }
+}
+
+impl BlePositioner for Frbw {
+    fn name(&self) -> &'static str {
+        "frbw"
+    }
+    fn locate(
+        &mut self,
+        beacons: &[FilteredBeacon],
+        _grid: &[Vec2],
+        _prev: Option<Vec2>,
+    ) -> Option<Vec2> {
+        if beacons.len() < 3 {
+            return None;
+        }
+        weighted_centroid(beacons, self.top_n, self.g, self.min_d_m)
+    }
+}
+
+/// Weighted centroid of the strongest beacons with weights d^-exponent. Needs 3 beacons.
+#[derive(Debug, Clone)]
+pub struct WeightedCentroid {
+    top_n: usize,
+    exponent: f64,
+    min_d_m: f64,
+}
+
+impl WeightedCentroid {
+    pub fn new(cfg: &BleConfig) -> Self {
+        WeightedCentroid {
+            top_n: cfg.wcentroid.top_n,
+            exponent: cfg.wcentroid.exponent,
+            min_d_m: cfg.min_distance_m,
+        }
+    }
+}
+
+impl BlePositioner for WeightedCentroid {
+    fn name(&self) -> &'static str {
+        "wcentroid"
+    }
+    fn locate(
+        &mut self,
+        beacons: &[FilteredBeacon],
+        _grid: &[Vec2],
+        _prev: Option<Vec2>,
+    ) -> Option<Vec2> {
+        if beacons.len() < 3 {
+            return None;
+        }
+        weighted_centroid(beacons, self.top_n, self.exponent, self.min_d_m)
+    }
+}

@@ -1,0 +1,45 @@
+//! Grid arrays for GML (FP-BP Sec. IV-A4) where the map's own grid is not at
+//! hand: a rectangle (tests, benches) and the walkable points of a floor map.
+
+use crate::Vec2;
+use crate::map::FloorMap;
+
+/// Grid points ((i + 0.5) I, (j + 0.5) I) covering [0, w] x [0, h], row by row.
+pub fn rect_grid(width_m: f64, height_m: f64, interval_m: f64) -> Vec<Vec2> {
+    if !(interval_m > 0.0 && width_m.is_finite() && height_m.is_finite()) {
+        return Vec::new();
+    }
+    let nx = (width_m / interval_m).floor().max(0.0) as usize;
+    let ny = (height_m / interval_m).floor().max(0.0) as usize;
+    let mut g = Vec::with_capacity(nx * ny);
+    for j in 0..ny {
+        for i in 0..nx {
+            g.push(Vec2::new(
+                (i as f64 + 0.5) * interval_m,
+                (j as f64 + 0.5) * interval_m,
+            ));
+        }
+    }
+    g
+}
+
+/// The walkable grid points of `map` at `interval_m` (eq. before Sec. IV-B:
+/// points with M(g) = 0).
+pub fn walkable_grid(map: &FloorMap, interval_m: f64) -> Vec<Vec2> {
+    rect_grid(map.width_m(), map.height_m(), interval_m)
+        .into_iter()
+        .filter(|p| map.is_walkable(*p))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rect_grid_counts() {
+        assert_eq!(rect_grid(60.0, 40.0, 1.0).len(), 2400);
+        assert!(rect_grid(60.0, 40.0, 0.0).is_empty());
+        assert!(rect_grid(f64::NAN, 40.0, 1.0).is_empty());
+    }
+}

@@ -1,0 +1,133 @@
+//! The BLE task (the paper's GML Runnable): front end + one positioner + the
+//! eq. 22 mean filter. Each run picks the floor most of the strongest beacons
+//! are on, estimates y* on that floor's grid and returns x_B.
+
+use std::collections::BTreeMap;
+
+use super::config::BleConfig;
+use super::frontend::{BleFrontEnd, FilteredBeacon};
+use super::grid::walkable_grid;
+use super::mean_filter::MeanFilter;
+use super::positioner::{BlePositioner, PositionerKind};
+use crate::Vec2;
+use crate::events::BleObservation;
+use crate::site::Site;
+
+/// One BLE position x_B.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BleFix {
+    pub t_ns: i64,
+    /// x_B after the mean filter, MCS metres.
+    pub pos: Vec2,
+    /// y* before the mean filter.
+    pub raw: Vec2,
+    pub floor: i32,
+    /// Beacons the filtered set held on `floor`.
+    pub beacons: usize,
+}
+
+/// Front end + positioner + mean filter.
+pub struct BleTask {
+    cfg: BleConfig,
+    front: BleFrontEnd,
+    positioner: Box<dyn BlePositioner>,
+    mean: MeanFilter,
+    grids: BTreeMap<i32, Vec<Vec2>>,
+    last: Option<BleFix>,
+    /// Runs that produced no position.
+    pub no_fix: u64,
+}
+
+impl BleTask {
+    /// A task on `site` with the positioner `kind`. Grids are built once per
+    /// floor (walkable points at the site's grid interval).
+    pub fn new(kind: PositionerKind, cfg: &BleConfig, site: &Site) -> Self {
+        let mut grids = BTreeMap::new();
+        if kind == PositionerKind::Gml {
+            for (spec, map) in site.spec.floors.iter().zip(&site.floors) {
+                grids.insert(spec.id, walkable_grid(map, site.spec.grid_interval_m));
+            }
+        }
+        Self::with_parts(cfg, BleFrontEnd::new(cfg, site), kind.build(cfg), grids)
+    }
+
+    /// A task from explicit parts (tests, benches, other engines).
+    pub fn with_parts(
+        cfg: &BleConfig,
+        front: BleFrontEnd,
+        positioner: Box<dyn BlePositioner>,
+        grids: BTreeMap<i32, Vec<Vec2>>,
+    ) -> Self {
+        BleTask {
+            cfg: cfg.clone(),
+            front,
+            positioner,
+            mean: MeanFilter::new(cfg.mean_window_n, cfg.mean_reset_s),
+            grids,
+            last: None,
+            no_fix: 0,
+        }
+    }
+
+    pub fn front(&self) -> &BleFrontEnd {
+        &self.front
+    }
+
+    pub fn positioner_name(&self) -> &'static str {
+        self.positioner.name()
+    }
+
+    /// Hands one observation to the front end; true when it was used.
+    pub fn on_observation(&mut self, obs: &BleObservation) -> bool {
+        self.front.on_observation(obs)
+    }
+
+    /// The current filtered set on the likely floor, strongest first.
+    pub fn beacons_on_floor(&self, t_ns: i64) -> (Option<i32>, Vec<FilteredBeacon>) {
+        let all = self.front.current(t_ns);
+        let floor = BleFrontEnd::likely_floor(&all, self.cfg.gml.top_n);
+        let on = all.into_iter().filter(|b| Some(b.floor) == floor).collect();
+        (floor, on)
+    }
+
+    /// One run at `t_ns`. `prev` is the previous position on the floor (the
+    /// fused one for FP-BP); `None` uses this task's own last x_B when it is on
+    /// the same floor. Returns x_B, or `None` (counted in `no_fix`).
+    pub fn run(&mut self, t_ns: i64, prev: Option<Vec2>) -> Option<BleFix> {
+        let (floor, beacons) = self.beacons_on_floor(t_ns);
+        let Some(floor) = floor else {
+            self.no_fix += 1;
+            return None;
+        };
+        let same_floor_last = self.last.filter(|l| l.floor == floor);
+        if same_floor_last.is_none() {
+            self.mean.clear();
+        }
+        let prev = prev.or(same_floor_last.map(|l| l.pos));
+        let grid: &[Vec2] = self.grids.get(&floor).map(|g| g.as_slice()).unwrap_or(&[]);
+        let Some(raw) = self.positioner.locate(&beacons, grid, prev) else {
+            self.no_fix += 1;
+            return None;
+        };
+        let pos = self.mean.push(t_ns, raw);
+        if !(pos.x.is_finite() && pos.y.is_finite()) {
+            self.mean.clear();
+            self.no_fix += 1;
+            return None;
+        }
+        let fix = BleFix {
+            t_ns,
+            pos,
+            raw,
+            floor,
+            beacons: beacons.len(),
+        };
+        self.last = Some(fix);
+        Some(fix)
+    }
+
+    /// The last x_B.
+    pub fn last(&self) -> Option<BleFix> {
+        self.last
+    }
+}

@@ -1,0 +1,217 @@
+//! Engine `pdr`: dead reckoning from a given start (FP-BP's PDR baseline).
+//!
+//! The start comes from the caller (`InitialPosition`: a tap on the map, or
+//! the first truth point under the harness); building without one is an
+//! error. On every Fusion task run the steps detected since the last run move
+//! the position by length_m along yaw_rad (eq. 3). No BLE, no map: positions
+//! may cross walls. The accuracy radius grows linearly with the distance
+//! walked (`pdr.start_accuracy_m + pdr.accuracy_per_walked_m * walked`).
+
+use std::sync::Arc;
+
+use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::events::{BleObservation, SensorEvent};
+use crate::pdr::Pdr;
+use crate::site::Site;
+use crate::{Error, Result};
+
+/// Dead reckoning from a known start.
+#[derive(Debug, Clone)]
+pub struct PdrEngine {
+    pdr: Pdr,
+    fusion_period_ns: i64,
+    x_m: f64,
+    y_m: f64,
+    floor: i32,
+    heading_rad: f64,
+    walked_m: f64,
+    start_accuracy_m: f64,
+    accuracy_per_walked_m: f64,
+    last_task_t_ns: Option<i64>,
+    stats: EngineStats,
+}
+
+impl PdrEngine {
+    /// Builds the engine; `init` is required.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        config.validate()?;
+        let init = init.ok_or_else(|| {
+            Error::Input(
+                "engine `pdr` needs an initial position (the harness passes the first truth point; \
+                 use --init truth)"
+                    .to_string(),
+            )
+        })?;
+        if !(init.x_m.is_finite() && init.y_m.is_finite()) {
+            return Err(Error::Input(format!(
+                "engine `pdr`: initial position ({}, {}) is not finite",
+                init.x_m, init.y_m
+            )));
+        }
+        Ok(PdrEngine {
+            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            x_m: init.x_m,
+            y_m: init.y_m,
+            floor: init.floor,
+            heading_rad: init.heading_rad.filter(|h| h.is_finite()).unwrap_or(0.0),
+            walked_m: 0.0,
+            start_accuracy_m: config.pdr.start_accuracy_m,
+            accuracy_per_walked_m: config.pdr.accuracy_per_walked_m,
+            last_task_t_ns: None,
+            stats: EngineStats::default(),
+        })
+    }
+
+    /// Distance walked so far, metres.
+    pub fn walked_m(&self) -> f64 {
+        self.walked_m
+    }
+}
+
+impl Engine for PdrEngine {
+    fn name(&self) -> &'static str {
+        "pdr"
+    }
+
+    fn on_sensor(&mut self, event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+        self.pdr.on_sensor(event);
+    }
+
+    fn on_ble(&mut self, _obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        if task != Task::Fusion {
+            return;
+        }
+        for step in self.pdr.take_steps() {
+            let (s, c) = step.yaw_rad.sin_cos();
+            self.x_m += step.length_m * c;
+            self.y_m += step.length_m * s;
+            self.walked_m += step.length_m;
+            self.heading_rad = step.yaw_rad;
+            self.stats.steps += 1;
+        }
+        self.last_task_t_ns = Some(t_ns);
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        match task {
+            Task::Ble => None,
+            Task::Fusion => Some(self.fusion_period_ns),
+        }
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        Some(Pose {
+            t_ns: self.last_task_t_ns.unwrap_or(0),
+            x_m: self.x_m,
+            y_m: self.y_m,
+            floor: self.floor,
+            heading_rad: self.heading_rad,
+            accuracy_m: self.start_accuracy_m + self.accuracy_per_walked_m * self.walked_m,
+        })
+    }
+
+    fn stats(&self) -> EngineStats {
+        let p = self.pdr.stats();
+        EngineStats {
+            rejected_inputs: p.skipped_accelerometer + p.skipped_gyroscope + p.bad_quaternions,
+            ..self.stats.clone()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::replay::replay;
+    use crate::events::{LogEvent, SensorData, TruthPoint};
+    use crate::pdr::PdrConfig;
+    use crate::pdr::orientation::to_android;
+    use crate::site::SiteSpec;
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    fn open_site() -> Arc<Site> {
+        let spec: SiteSpec = serde_json::from_str(
+            r#"{"format":"fpbp-site","version":1,"name":"t","floors":[{"id":0,"open_area_m":[50,50]}]}"#,
+        )
+        .unwrap();
+        Arc::new(Site {
+            spec,
+            floors: Vec::new(),
+        })
+    }
+
+    #[test]
+    fn needs_an_initial_position() {
+        let err = PdrEngine::new(open_site(), &EngineConfig::default(), None).unwrap_err();
+        assert!(err.to_string().contains("initial position"), "{err}");
+    }
+
+    #[test]
+    fn walks_north_from_the_start_and_is_scored() {
+        let init = InitialPosition {
+            x_m: 10.0,
+            y_m: 5.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        let mut eng = PdrEngine::new(open_site(), &EngineConfig::default(), Some(init)).unwrap();
+        assert_eq!(eng.task_period_ns(Task::Ble), None);
+        // 20 s of walking at 1.8 Hz, phone flat, top pointing north (identity quaternion).
+        let q = UnitQuaternion::identity();
+        let mut events = Vec::new();
+        for i in 0..1000i64 {
+            let t_ns = i * 20_000_000;
+            let t = t_ns as f64 * 1e-9;
+            let acc = Vector3::new(
+                0.0,
+                0.0,
+                9.81 + 2.5 * (std::f64::consts::TAU * 1.8 * t).sin(),
+            );
+            events.push(LogEvent::Sensor(SensorEvent {
+                t_ns,
+                data: SensorData::Accelerometer(acc.into()),
+            }));
+            events.push(LogEvent::Sensor(SensorEvent {
+                t_ns,
+                data: SensorData::RotationVector(to_android(&q)),
+            }));
+        }
+        events.push(LogEvent::Truth(TruthPoint {
+            t_ns: 19_990_000_000,
+            x_m: 10.0,
+            y_m: 30.0,
+            floor: Some(0),
+        }));
+        let out = replay(&mut eng, events);
+        let pose = eng.pose().unwrap();
+        let stats = eng.stats();
+        // 36 peaks; the first (0.14 s) comes before the window is full and the
+        // last is detected after the last task run, so 34 are applied.
+        assert!((34..=36).contains(&stats.steps), "{} steps", stats.steps);
+        let cfg = PdrConfig::default();
+        let amp = 2.5 / (1.0f64 + (1.8 / cfg.low_pass_cutoff_hz).powi(2)).sqrt();
+        let z_pp = amp * (1.0 - (std::f64::consts::TAU * 1.8 * cfg.half_window_s).cos());
+        let expect_len = cfg.step_length_beta * z_pp.powf(0.25);
+        assert!((pose.x_m - 10.0).abs() < 1e-6);
+        let walked = pose.y_m - 5.0;
+        assert!((walked - eng.walked_m()).abs() < 1e-9);
+        assert!(
+            (walked / stats.steps as f64 - expect_len).abs() < 0.05,
+            "mean step {}",
+            walked / stats.steps as f64
+        );
+        assert!(pose.accuracy_m > cfg.start_accuracy_m + cfg.accuracy_per_walked_m * 10.0);
+        assert_eq!(out.scored.len(), 1);
+        assert!(out.scored[0].error_m().unwrap() < 10.0);
+    }
+}

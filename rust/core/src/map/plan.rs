@@ -1,0 +1,159 @@
+//! Pixel classification of a stylized plan PNG (FP-BP Sec. IV-A1/2): each
+//! pixel takes the legend class whose colour is nearest in RGB; a pixel
+//! farther than the tolerance from every legend colour is *unclassified*,
+//! counted, and still given its nearest class. Above the legend's
+//! `max_unclassified_fraction` the plan is rejected.
+
+use super::Feature;
+use crate::{Error, Result, site::Legend};
+
+/// The classified pixels of one plan image.
+#[derive(Debug, Clone)]
+pub struct ClassifiedPlan {
+    pub width_px: usize,
+    pub height_px: usize,
+    /// Row-major, row 0 at the top of the image.
+    pub features: Vec<Feature>,
+    /// Pixels farther than the tolerance from every legend colour.
+    pub unclassified_count: usize,
+}
+
+impl ClassifiedPlan {
+    /// Unclassified pixels over all pixels.
+    pub fn unclassified_fraction(&self) -> f64 {
+        let n = self.width_px * self.height_px;
+        if n == 0 {
+            0.0
+        } else {
+            self.unclassified_count as f64 / n as f64
+        }
+    }
+}
+
+fn dist2(a: [u8; 3], b: [u8; 3]) -> f64 {
+    a.iter()
+        .zip(b.iter())
+        .map(|(&x, &y)| {
+            let d = x as f64 - y as f64;
+            d * d
+        })
+        .sum()
+}
+
+/// Classifies one RGB colour: the nearest legend class and whether it lies
+/// within the tolerance. Ties go to the more restrictive class (Wall, Door).
+pub fn classify_rgb(rgb: [u8; 3], legend: &Legend) -> (Feature, bool) {
+    let cands = [
+        (Feature::Wall, legend.wall),
+        (Feature::Door, legend.door),
+        (Feature::Walkable, legend.walkable),
+    ];
+    let mut best = (Feature::Wall, f64::INFINITY);
+    for (f, c) in cands {
+        let d = dist2(rgb, c);
+        if d < best.1 {
+            best = (f, d);
+        }
+    }
+    (best.0, best.1.sqrt() <= legend.tolerance)
+}
+
+/// Decodes `png_bytes` and classifies every pixel with `legend`. Alpha is
+/// ignored (the plan is expected opaque). `file` names the plan in errors.
+pub fn classify_png(png_bytes: &[u8], legend: &Legend, file: &str) -> Result<ClassifiedPlan> {
+    let img =
+        image::load_from_memory_with_format(png_bytes, image::ImageFormat::Png).map_err(|e| {
+            Error::Plan {
+                file: file.to_string(),
+                msg: format!("not a decodable PNG: {e}"),
+            }
+        })?;
+    let rgb = img.to_rgb8();
+    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    if w == 0 || h == 0 {
+        return Err(Error::Plan {
+            file: file.to_string(),
+            msg: "image has zero size".into(),
+        });
+    }
+    let mut features = Vec::with_capacity(w * h);
+    let mut unclassified = 0usize;
+    for p in rgb.pixels() {
+        let (f, ok) = classify_rgb(p.0, legend);
+        if !ok {
+            unclassified += 1;
+        }
+        features.push(f);
+    }
+    let plan = ClassifiedPlan {
+        width_px: w,
+        height_px: h,
+        features,
+        unclassified_count: unclassified,
+    };
+    let frac = plan.unclassified_fraction();
+    if frac > legend.max_unclassified_fraction {
+        return Err(Error::Plan {
+            file: file.to_string(),
+            msg: format!(
+                "{unclassified} of {} pixels ({:.2}%) match no legend colour within tolerance {} \
+                 (limit legend.max_unclassified_fraction = {})",
+                w * h,
+                frac * 100.0,
+                legend.tolerance,
+                legend.max_unclassified_fraction
+            ),
+        });
+    }
+    Ok(plan)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn png(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) -> Vec<u8> {
+        let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb(f(x, y)));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        out.into_inner()
+    }
+
+    #[test]
+    fn classifies_legend_colours_with_tolerance() {
+        let bytes = png(4, 1, |x, _| match x {
+            0 => [10, 10, 10],
+            1 => [240, 20, 20],
+            2 => [250, 250, 250],
+            _ => [128, 128, 128],
+        });
+        let legend = Legend {
+            max_unclassified_fraction: 0.5,
+            ..Legend::default()
+        };
+        let p = classify_png(&bytes, &legend, "t.png").unwrap();
+        assert_eq!(
+            &p.features[..3],
+            &[Feature::Wall, Feature::Door, Feature::Walkable]
+        );
+        assert_eq!(p.unclassified_count, 1);
+        assert!((p.unclassified_fraction() - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn too_many_unclassified_is_an_error_naming_the_file() {
+        let bytes = png(4, 4, |_, _| [0, 200, 0]);
+        let e = classify_png(&bytes, &Legend::default(), "green.png").unwrap_err();
+        let s = e.to_string();
+        assert!(
+            s.contains("green.png") && s.contains("max_unclassified_fraction"),
+            "{s}"
+        );
+    }
+
+    #[test]
+    fn non_png_is_an_error() {
+        let e = classify_png(b"GIF89a not a png", &Legend::default(), "x.png").unwrap_err();
+        assert!(e.to_string().contains("x.png"));
+    }
+}

@@ -21,7 +21,7 @@ class NativeErrorsTest {
         val e = assertThrows<IllegalArgumentException> {
             NativeBridge.start("{ \"format\": ", dir, "", TestSupport.engine, null)
         }
-        assertMessage(e, "site JSON", "line 1")
+        assertMessage(e, "site.json", "line 1")
     }
 
     @Test

@@ -74,7 +74,7 @@ props+=(
   "-Dfpbp.log_echo=$lib/examples/log_echo"
 )
 if [ $bench -eq 1 ]; then
-  props+=("-Dsurefire.groups=bench" "-Dsurefire.excludedGroups=" "-Dtest=JniOverheadBench")
+  props+=("-Dsurefire.groups=bench" "-Dsurefire.excludedGroups=" "-Dtest=JniOverheadBench" "-Dfpbp.checkjni=")
 fi
 
 echo "== mvn -B -q test (Kotlin $(sed -n 's:.*<kotlin.version>\(.*\)</kotlin.version>.*:\1:p' "$here/pom.xml"), JUnit 5, libfpbp from $lib)"

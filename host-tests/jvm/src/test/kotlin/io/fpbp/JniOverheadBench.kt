@@ -27,6 +27,7 @@ class JniOverheadBench {
             val v = doubleArrayOf(0.1, 0.2, 9.81)
             val out = DoubleArray(NativeBridge.POSE_LEN)
             var t = 1_000_000_000L
+            measure("taskPeriodNs (bridge fixed cost)", 2_000_000) { NativeBridge.taskPeriodNs(h, 1) }
             measure("onSensor(ACC) NativeBridge", 2_000_000) { NativeBridge.onSensor(h, 1, t++, v) }
             measure("onSensor(GYR) NativeBridge", 2_000_000) { NativeBridge.onSensor(h, 4, t++, v) }
             measure("onSensor(ACC) FpbpEngine FloatArray", 1_000_000) { e.onSensor(1, t++, floatArrayOf(0.1f, 0.2f, 9.81f)) }

@@ -1,9 +1,300 @@
-//! `fpbp calibrate` (being implemented).
+//! `fpbp calibrate`: estimate transmitter positions and path-loss models from
+//! survey logs with ground truth, and write the site with those beacons.
+//! The work is done by `fpbp_core::ble::calibrate`; this is file glue.
+//!
+//! `--check-logs` replays the BLE-only engines on held-out logs with the
+//! calibrated site and prints mean / p50 / p80 error at the truth points and
+//! the share of truth points that had a position (open floors only until the
+//! map loader is wired in here).
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
+use fpbp_core::engine::replay::replay;
+use fpbp_core::engine::{EngineConfig, build_engine};
+use fpbp_core::events::LogEvent;
+use fpbp_core::map::{Feature, FloorMap};
+use fpbp_core::site::{Site, SiteSpec};
+use fpbp_logs::{ReadOptions, read_all};
+
+/// Which logs of the list (sorted by file name) to use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Split {
+    /// Even indices (0, 2, ...): the calibration half of DESIGN.md's rule.
+    Even,
+    /// Odd indices: the test half.
+    Odd,
+    All,
+}
 
 /// Arguments of `fpbp calibrate`.
 #[derive(clap::Args)]
-pub struct Args {}
+pub struct Args {
+    /// Site file (site.json) whose floors the logs were recorded on.
+    #[arg(long)]
+    pub site: PathBuf,
+    /// Survey logs with ground truth (native, ILC or IPIN; gzip ok).
+    #[arg(long, num_args = 1.., required = true)]
+    pub logs: Vec<PathBuf>,
+    /// Output site file: the input site with the accepted beacons added/replaced.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Use only this half of the logs (sorted by file name).
+    #[arg(long, value_enum, default_value = "all")]
+    pub split: Split,
+    /// Engine config JSON (its `ble.calibration` section tunes the fit).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Floor of truth points whose log does not say (ILC); default: the site's first floor.
+    #[arg(long)]
+    pub floor: Option<i32>,
+    /// Write every transmitter's report (accepted and rejected) as JSON here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Held-out logs to replay the BLE engines on with the calibrated site.
+    #[arg(long, num_args = 1..)]
+    pub check_logs: Vec<PathBuf>,
+    /// Split applied to --check-logs.
+    #[arg(long, value_enum, default_value = "all")]
+    pub check_split: Split,
+    /// Engines for --check-logs.
+    #[arg(long, default_value = "gml,trilat,frbw,ml,wcentroid")]
+    pub check_engines: String,
+}
 
-pub fn run(_args: Args) -> anyhow::Result<()> {
-    anyhow::bail!("`fpbp calibrate` is not implemented yet")
+fn select(logs: &[PathBuf], split: Split) -> Vec<PathBuf> {
+    let mut v = logs.to_vec();
+    v.sort_by(|a, b| a.file_name().cmp(&b.file_name()).then_with(|| a.cmp(b)));
+    v.into_iter()
+        .enumerate()
+        .filter(|(i, _)| match split {
+            Split::Even => i % 2 == 0,
+            Split::Odd => i % 2 == 1,
+            Split::All => true,
+        })
+        .map(|(_, p)| p)
+        .collect()
+}
+
+fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
+    ReadOptions {
+        site_georef: spec.georef.map(|g| (g, spec.map_from_enu_rad)),
+        default_floor: Some(
+            floor.unwrap_or_else(|| spec.floors.first().map(|f| f.id).unwrap_or(0)),
+        ),
+        ..ReadOptions::default()
+    }
+}
+
+fn load_events(path: &Path, opts: &ReadOptions) -> Result<Vec<LogEvent>> {
+    let (events, report) =
+        read_all(path, opts).with_context(|| format!("reading {}", path.display()))?;
+    if report.malformed_skipped > 0 {
+        log::warn!(
+            "{}: {} malformed lines skipped",
+            path.display(),
+            report.malformed_skipped
+        );
+    }
+    Ok(events)
+}
+
+fn load_spec(path: &Path) -> Result<SiteSpec> {
+    let bytes = std::fs::read(path).with_context(|| format!("reading {}", path.display()))?;
+    serde_json::from_slice(&bytes)
+        .with_context(|| format!("{}: not a valid site.json", path.display()))
+}
+
+fn load_config(path: Option<&PathBuf>) -> Result<EngineConfig> {
+    match path {
+        None => Ok(EngineConfig::default()),
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            EngineConfig::from_json(&text).with_context(|| format!("{}", p.display()))
+        }
+    }
+}
+
+fn print_table(reports: &[TransmitterReport]) {
+    let mut shown: Vec<&TransmitterReport> = reports.iter().filter(|r| r.x_m.is_some()).collect();
+    shown.sort_by(|a, b| {
+        b.accepted()
+            .cmp(&a.accepted())
+            .then(b.bins.cmp(&a.bins))
+            .then(a.id.cmp(&b.id))
+    });
+    println!(
+        "{:<48} {:>5} {:>5} {:>6} {:>7} {:>7} {:>6} {:>5} {:>6} {:>6} {:>6}  verdict",
+        "id", "floor", "paths", "bins", "x_m", "y_m", "r0", "n", "resid", "corr", "excess"
+    );
+    let f = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.1}"));
+    let f2 = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:.2}"));
+    for r in shown {
+        println!(
+            "{:<48} {:>5} {:>5} {:>6} {:>7} {:>7} {:>6} {:>5} {:>6} {:>6} {:>6}  {}",
+            r.id,
+            r.floor,
+            r.paths,
+            r.bins,
+            f(r.x_m),
+            f(r.y_m),
+            f(r.rssi_1m_dbm),
+            f2(r.path_loss_exponent),
+            f(r.residual_dbm),
+            f2(r.correlation),
+            f(r.path_excess_dbm),
+            r.rejected.as_deref().unwrap_or("fixed")
+        );
+    }
+}
+
+/// A site with maps for the check: open floors become walkable rectangles at
+/// 1 px/m; plan floors are not supported here.
+fn open_site(spec: &SiteSpec) -> Result<Site> {
+    let mut floors = Vec::new();
+    for f in &spec.floors {
+        let Some([w, h]) = f.open_area_m else {
+            bail!(
+                "--check-logs supports open floors only (floor {} has a plan); use `fpbp eval`",
+                f.id
+            );
+        };
+        let (wp, hp) = (w.ceil().max(1.0) as usize, h.ceil().max(1.0) as usize);
+        floors.push(FloorMap::from_features(
+            wp,
+            hp,
+            1.0,
+            vec![Feature::Walkable; wp * hp],
+        ));
+    }
+    Ok(Site {
+        spec: spec.clone(),
+        floors,
+    })
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let pos = q * (sorted.len() - 1) as f64;
+    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
+    sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+}
+
+fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
+    let logs = select(&args.check_logs, args.check_split);
+    let site = Arc::new(open_site(spec)?);
+    let opts = read_options(spec, args.floor);
+    let mut all_events = Vec::new();
+    for l in &logs {
+        all_events.push(load_events(l, &opts)?);
+    }
+    println!(
+        "\ncheck on {} held-out logs (errors at truth points, engines find their own start):",
+        logs.len()
+    );
+    println!(
+        "{:<10} {:>7} {:>7} {:>7} {:>7} {:>8} {:>8}",
+        "engine", "points", "fixed%", "mean_m", "p50_m", "p80_m", "no_fix"
+    );
+    for name in args
+        .check_engines
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+    {
+        let mut errs = Vec::new();
+        let (mut points, mut no_fix) = (0usize, 0u64);
+        for events in &all_events {
+            let mut e = build_engine(name, site.clone(), cfg, None)?;
+            let out = replay(e.as_mut(), events.iter().cloned());
+            points += out.scored.len();
+            no_fix += out.stats.no_fix;
+            errs.extend(out.scored.iter().filter_map(|s| s.error_m()));
+        }
+        errs.sort_by(f64::total_cmp);
+        let fig = |v: f64| {
+            if errs.is_empty() {
+                "-".to_string()
+            } else {
+                format!("{v:.2}")
+            }
+        };
+        let mean = errs.iter().sum::<f64>() / errs.len().max(1) as f64;
+        println!(
+            "{:<10} {:>7} {:>6.1}% {:>7} {:>7} {:>8} {:>8}",
+            name,
+            points,
+            100.0 * errs.len() as f64 / points.max(1) as f64,
+            fig(mean),
+            fig(percentile(&errs, 0.5)),
+            fig(percentile(&errs, 0.8)),
+            no_fix
+        );
+    }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let spec = load_spec(&args.site)?;
+    let cfg = load_config(args.config.as_ref())?;
+    let logs = select(&args.logs, args.split);
+    if logs.is_empty() {
+        bail!("no logs left after --split {:?}", args.split);
+    }
+    let opts = read_options(&spec, args.floor);
+    let mut paths = Vec::new();
+    for l in &logs {
+        let events = load_events(l, &opts)?;
+        let mut p = SurveyPath {
+            name: l.display().to_string(),
+            ..Default::default()
+        };
+        for e in events {
+            match e {
+                LogEvent::Ble(b) => p.observations.push(b),
+                LogEvent::Truth(t) => p.truth.push(t),
+                _ => {}
+            }
+        }
+        if p.truth.len() < 2 {
+            eprintln!("{}: fewer than 2 truth points, skipped", l.display());
+            continue;
+        }
+        paths.push(p);
+    }
+    let (reports, summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
+    print_table(&reports);
+    let too_little = reports.iter().filter(|r| r.x_m.is_none()).count();
+    println!(
+        "\n{} paths, {} BLE observations ({} without truth around them, {} invalid); {} transmitters: {} left out for too little data, {} fitted, {} fixed-looking kept",
+        summary.paths,
+        summary.observations,
+        summary.without_truth,
+        summary.invalid,
+        summary.transmitters,
+        too_little,
+        summary.transmitters - too_little,
+        summary.accepted
+    );
+    let out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
+    let text = serde_json::to_string_pretty(&out)?;
+    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} beacons)",
+        args.out.display(),
+        out.beacons.len()
+    );
+    if let Some(r) = &args.report {
+        std::fs::write(r, serde_json::to_string_pretty(&reports)?)
+            .with_context(|| format!("writing {}", r.display()))?;
+    }
+    if !args.check_logs.is_empty() {
+        check(&args, &out, &cfg)?;
+    }
+    Ok(())
 }

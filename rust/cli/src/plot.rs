@@ -62,9 +62,6 @@ pub struct TrackPlot<'a> {
 }
 
 fn bounds(plot: &TrackPlot) -> (f64, f64, f64, f64) {
-    if let Some(m) = plot.map {
-        return (0.0, m.width_m(), 0.0, m.height_m());
-    }
     let pts = plot
         .tracks
         .iter()
@@ -83,9 +80,13 @@ fn bounds(plot: &TrackPlot) -> (f64, f64, f64, f64) {
         y1 = y1.max(y);
     }
     if !x0.is_finite() {
-        return (0.0, 1.0, 0.0, 1.0);
+        return match plot.map {
+            Some(m) => (0.0, m.width_m(), 0.0, m.height_m()),
+            None => (0.0, 1.0, 0.0, 1.0),
+        };
     }
-    let span = (x1 - x0).max(y1 - y0).max(1.0);
+    // Zoom on the data (at least 20 m across) with a margin; the plan is drawn underneath.
+    let span = (x1 - x0).max(y1 - y0).max(20.0);
     let (mx, my) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
     let (hw, hh) = (
         ((x1 - x0).max(1.0) / 2.0 + 0.05 * span),

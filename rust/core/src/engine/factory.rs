@@ -6,7 +6,16 @@ use super::{Engine, EngineConfig, InitialPosition};
 use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
-pub const ENGINE_NAMES: &[&str] = &["pdr", "gml", "trilat", "frbw", "ml", "wcentroid"];
+pub const ENGINE_NAMES: &[&str] = &[
+    "fpbp",
+    "bp",
+    "pdr",
+    "gml",
+    "trilat",
+    "frbw",
+    "ml",
+    "wcentroid",
+];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
@@ -23,6 +32,12 @@ pub fn build_engine(
         )));
     }
     match name {
+        "fpbp" | "bp" => Ok(Box::new(crate::engines::fpbp::FpbpEngine::new(
+            site,
+            config,
+            name == "fpbp",
+            init,
+        )?)),
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
             site, config, init,
         )?)),

@@ -1,4 +1,5 @@
 //! The engines, one module each (see `engine::factory` for the names).
 
 pub mod ble_only;
+pub mod fpbp;
 pub mod pdr;

@@ -1,15 +1,16 @@
-//! fusion (being implemented).
+//! Particle-filter fusion of PDR steps with the BLE position x_B (FP-BP
+//! Sec. IV-C) and the floor-plan post-position correction PPC (Sec. IV-D,
+//! Algorithm 2).
+//!
+//! - [`particle_filter`]: eq. 34 (transition), eq. 36 (weights), resampling,
+//!   eq. 35b (estimate), eq. 44 (shift).
+//! - [`ppc`]: Algorithm 2 on a [`ppc::PlanQueries`] map (raycast, room, normal).
+//! - [`FusionConfig`]: every threshold, with units and defaults.
 
-use serde::{Deserialize, Serialize};
+pub mod config;
+pub mod particle_filter;
+pub mod ppc;
 
-/// Parameters of the fusion subsystem; every field documented with unit and default.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
-#[serde(default, deny_unknown_fields)]
-pub struct FusionConfig {}
-
-impl FusionConfig {
-    /// Checks every field's range; errors name the field.
-    pub fn validate(&self) -> crate::Result<()> {
-        Ok(())
-    }
-}
+pub use config::{FusionConfig, PpcConfig, Resampling};
+pub use particle_filter::ParticleFilter;
+pub use ppc::{PlanQueries, PpcCase, PpcOutcome};

@@ -31,7 +31,7 @@ pub struct MadgwickTracker {
     last_gyro_t_ns: Option<i64>,
     acc: Option<Vector3<f64>>,
     mag: Option<Vector3<f64>>,
-    /// Gyroscope samples skipped because their timestamp did not advance.
+    /// Gyroscope samples skipped (timestamp not advancing or non-finite values).
     pub skipped_samples: u64,
 }
 
@@ -63,6 +63,9 @@ impl MadgwickTracker {
     /// Sets the orientation (device -> ENU), e.g. from the rotation vector at
     /// k0 so that the filter starts from theta_k0 (eq. 32).
     pub fn set_orientation(&mut self, q_enu: UnitQuaternion<f64>) {
+        if !q_enu.coords.iter().all(|c| c.is_finite()) {
+            return;
+        }
         self.q_nwu = Some(nwu_to_enu().inverse() * q_enu);
     }
 
@@ -73,12 +76,16 @@ impl MadgwickTracker {
 
     /// Records the latest accelerometer sample (m/s^2, with gravity).
     pub fn on_accelerometer(&mut self, acc: Vector3<f64>) {
-        self.acc = Some(acc);
+        if acc.iter().all(|v| v.is_finite()) {
+            self.acc = Some(acc);
+        }
     }
 
     /// Records the latest magnetometer sample (uT).
     pub fn on_magnetometer(&mut self, mag: Vector3<f64>) {
-        self.mag = Some(mag);
+        if mag.iter().all(|v| v.is_finite()) {
+            self.mag = Some(mag);
+        }
     }
 
     /// Orientation from the latest accelerometer (tilt) and magnetometer
@@ -109,7 +116,7 @@ impl MadgwickTracker {
     /// [`Self::static_orientation`] when not yet initialised.
     pub fn on_gyroscope(&mut self, t_ns: i64, gyro: Vector3<f64>) {
         let prev = self.last_gyro_t_ns;
-        if prev.is_some_and(|p| t_ns <= p) {
+        if prev.is_some_and(|p| t_ns <= p) || !gyro.iter().all(|v| v.is_finite()) {
             self.skipped_samples += 1;
             return;
         }

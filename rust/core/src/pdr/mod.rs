@@ -32,7 +32,7 @@ pub struct PdrConfig {
     pub z_th_mps2: f64,
     /// k_th of eq. 29c: minimum time between two steps, seconds. Default 0.3.
     pub min_step_interval_s: f64,
-    /// beta of eq. 31 (s = beta * z_pp^(1/4)), metres / (m/s^2)^(1/4). Default 0.45.
+    /// beta of eq. 31 (s = beta * z_pp^(1/4)), metres / (m/s^2)^(1/4). Default 0.40.
     pub step_length_beta: f64,
     /// Cut-off of the first-order low-pass on the vertical acceleration, Hz;
     /// 0 disables it. Default 3.0.
@@ -65,7 +65,7 @@ impl Default for PdrConfig {
             half_window_s: 0.2,
             z_th_mps2: 0.6,
             min_step_interval_s: 0.3,
-            step_length_beta: 0.45,
+            step_length_beta: 0.40,
             low_pass_cutoff_hz: 3.0,
             gravity_tau_s: 2.0,
             max_gap_s: 0.5,
@@ -493,6 +493,49 @@ mod tests {
         // A gyro sample initialises the IMU-only Madgwick from the accelerometer.
         pdr.on_sensor(&ev(1, SensorData::Gyroscope([0.0; 3])));
         assert!(pdr.yaw_rad().is_some());
+    }
+
+    fn any_sensor_data() -> impl proptest::strategy::Strategy<Value = SensorData> {
+        use proptest::prelude::*;
+        let v = prop_oneof![4 => -30.0f64..30.0, 1 => Just(f64::NAN), 1 => Just(f64::INFINITY), 1 => Just(0.0)];
+        let v3 = [v.clone(), v.clone(), v.clone()];
+        let v4 = [v.clone(), v.clone(), v.clone(), v];
+        prop_oneof![
+            v3.clone().prop_map(SensorData::Accelerometer),
+            v3.clone().prop_map(SensorData::Gyroscope),
+            v3.prop_map(SensorData::Magnetometer),
+            v4.clone().prop_map(SensorData::RotationVector),
+            v4.prop_map(SensorData::GameRotationVector),
+        ]
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn garbage_streams_never_panic_and_outputs_stay_sane(
+            evs in proptest::collection::vec((-50i64..2_000, any_sensor_data()), 0..400),
+            source in 0usize..4,
+        ) {
+            let heading_source = [
+                HeadingSource::RotationVectorThenMadgwick,
+                HeadingSource::RotationVector,
+                HeadingSource::Madgwick,
+                HeadingSource::GameRotationVector,
+            ][source];
+            let cfg = PdrConfig { heading_source, switch_to_madgwick_after_s: Some(0.5), ..PdrConfig::default() };
+            let mut pdr = Pdr::new(&cfg, 0.3);
+            let mut t = 0i64;
+            for (dt_ms, data) in evs {
+                t += dt_ms * 1_000_000; // may go backwards or repeat
+                pdr.on_sensor(&ev(t, data));
+                if let Some(y) = pdr.yaw_rad() {
+                    proptest::prop_assert!(y.is_finite() && y.abs() <= PI + 1e-9);
+                }
+                for s in pdr.take_steps() {
+                    proptest::prop_assert!(s.length_m.is_finite() && s.length_m >= 0.0);
+                    proptest::prop_assert!(s.yaw_rad.is_finite() && s.z_pp >= 0.0);
+                }
+            }
+        }
     }
 
     #[test]

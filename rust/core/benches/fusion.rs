@@ -1,0 +1,88 @@
+//! One fusion step (move + weight + resample + PPC + particle shift) with the
+//! default 1000 particles, on an office-like plan: rooms off a corridor with
+//! doors. Target: 100 us per step (the paper reports 4.67 ms on a phone).
+//!
+//! Run: `cargo bench -p fpbp-core --bench fusion`.
+
+use std::hint::black_box;
+
+use criterion::{Criterion, criterion_group, criterion_main};
+use fpbp_core::Vec2;
+use fpbp_core::fusion::{FusionConfig, ParticleFilter, ppc};
+use fpbp_core::map::{Feature, FloorMap};
+
+/// 40 m x 20 m at 10 px/m: a corridor along y in [9, 11] m, rooms of 5 m
+/// above and below it, each with a 1 m door onto the corridor.
+fn office() -> FloorMap {
+    let (w, h, r) = (400usize, 200usize, 10.0);
+    let mut f = vec![Feature::Walkable; w * h];
+    for j in 0..h {
+        for i in 0..w {
+            let (x, y) = ((i as f64 + 0.5) / r, ((h - j) as f64 - 0.5) / r);
+            let border = !(0.2..39.8).contains(&x) || !(0.2..19.8).contains(&y);
+            let corridor_wall = (8.8..9.0).contains(&y) || (11.0..11.2).contains(&y);
+            let room_wall = (x % 5.0) < 0.2 && !(9.0..11.0).contains(&y);
+            let door = corridor_wall && (x % 5.0 - 2.0).abs() < 0.5;
+            f[j * w + i] = if border || room_wall || (corridor_wall && !door) {
+                Feature::Wall
+            } else if door {
+                Feature::Door
+            } else {
+                Feature::Walkable
+            };
+        }
+    }
+    FloorMap::from_features(w, h, r, f)
+}
+
+fn fusion_step(c: &mut Criterion) {
+    let map = office();
+    let cfg = FusionConfig::default();
+    let mut pf = ParticleFilter::new(&cfg, 1);
+    let start = Vec2::new(2.5, 10.0);
+    pf.init_at(start, 1.0, |p| map.is_walkable(p));
+    let mut prev = start;
+    let mut k = 0u64;
+    c.bench_function("fusion_step_1000_particles_ppc", |b| {
+        b.iter(|| {
+            // Walk east along the corridor, weaving into the walls now and then.
+            k += 1;
+            let yaw = if k % 8 < 4 { 0.6 } else { -0.6 };
+            let x_b = prev + Vec2::new(1.0, 0.0);
+            pf.predict(0.7, yaw);
+            pf.weight(x_b);
+            let x_hat = pf.mean().unwrap_or(prev);
+            pf.resample();
+            let o = ppc::correct(&map, prev, x_hat, Some(x_b), &cfg.ppc);
+            ppc::apply_to_particles(&map, &mut pf, x_hat, &o);
+            prev = if o.position.x > 37.0 {
+                start
+            } else {
+                o.position
+            };
+            if prev == start {
+                pf.init_at(start, 1.0, |p| map.is_walkable(p));
+            }
+            black_box(prev)
+        })
+    });
+}
+
+/// The filter alone (move + weight + resample), for comparison.
+fn filter_only(c: &mut Criterion) {
+    let cfg = FusionConfig::default();
+    let mut pf = ParticleFilter::new(&cfg, 1);
+    pf.init_at(Vec2::new(2.5, 10.0), 1.0, |_| true);
+    c.bench_function("filter_only_1000_particles", |b| {
+        b.iter(|| {
+            pf.predict(0.7, 0.1);
+            let x_b = pf.mean().unwrap_or_default() + Vec2::new(0.5, 0.0);
+            pf.weight(x_b);
+            pf.resample();
+            black_box(pf.mean())
+        })
+    });
+}
+
+criterion_group!(benches, fusion_step, filter_only);
+criterion_main!(benches);

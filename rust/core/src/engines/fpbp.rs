@@ -1,0 +1,504 @@
+//! Engines `fpbp` (GML + PF + PPC, the paper's system) and `bp` (GML + PF,
+//! no PPC: the paper's ablation).
+//!
+//! Two tasks, as in the paper's Runnables, each owning its state:
+//! - [`BleSide`] (`Task::Ble`, every `tasks.gml_period_ms`): BLE front end +
+//!   GML + mean filter, publishes x_B.
+//! - [`FusionSide`] (`Task::Fusion`, every `tasks.fusion_period_ms`): PDR,
+//!   particle filter and PPC; consumes the steps detected since its last run,
+//!   reads the latest x_B, publishes the pose.
+//!
+//! They meet only through two small `Copy` values: x_B (BLE -> fusion) and
+//! the published position (fusion -> BLE, the x^(k-1) GML restricts its
+//! candidate grid with, eqs. 20-21). [`FpbpEngine`] holds both sides and hands
+//! these values across; a JNI host may put each side behind its own lock.
+//!
+//! Start-up: with an [`InitialPosition`] the particles start there; otherwise
+//! at the mean of the first `fusion.init_ble_fixes` BLE positions (Sec.
+//! IV-C). Without a fresh x_B (BLE-poor floors, gaps) the filter keeps dead
+//! reckoning: particles move, weights stay uniform, PPC keeps the track on
+//! the map and decides doors by the incident angle alone.
+
+use std::sync::Arc;
+
+use crate::Vec2;
+use crate::ble::{BleTask, PositionerKind, task::BleFix};
+use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::events::{BleObservation, SensorEvent};
+use crate::fusion::{FusionConfig, ParticleFilter, PpcCase, ppc};
+use crate::pdr::Pdr;
+use crate::site::Site;
+use crate::{Error, Result};
+
+/// How often each PPC branch fired (diagnostics).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PpcCounts {
+    pub free: u64,
+    pub start_on_obstacle: u64,
+    pub yaw_corrected: u64,
+    pub blocked: u64,
+    pub door_blocked_same_room: u64,
+    pub door_passed: u64,
+    /// Particles moved off obstacles after eq. 44.
+    pub particles_replaced: u64,
+}
+
+/// The BLE task: front end, GML and the eq. 22 mean filter.
+pub struct BleSide {
+    task: BleTask,
+    period_ns: i64,
+}
+
+impl BleSide {
+    /// A GML task on `site`.
+    pub fn new(site: &Site, config: &EngineConfig) -> Self {
+        BleSide {
+            task: BleTask::new(PositionerKind::Gml, &config.ble, site),
+            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+        }
+    }
+
+    /// Hands one scan result to the front end; true when it was used.
+    pub fn on_ble(&mut self, obs: &BleObservation) -> bool {
+        self.task.on_observation(obs)
+    }
+
+    /// One GML run at `t_ns`; `prev` is the last published fused position.
+    pub fn run(&mut self, t_ns: i64, prev: Option<Vec2>) -> Option<BleFix> {
+        self.task.run(t_ns, prev)
+    }
+
+    /// The last x_B.
+    pub fn last(&self) -> Option<BleFix> {
+        self.task.last()
+    }
+}
+
+/// The fusion task: PDR, particle filter and (for `fpbp`) PPC.
+pub struct FusionSide {
+    site: Arc<Site>,
+    cfg: FusionConfig,
+    use_ppc: bool,
+    pdr: Pdr,
+    pf: ParticleFilter,
+    period_ns: i64,
+    floor: i32,
+    /// Collected x_B for the start-up mean, and the time of the last one used.
+    init_fixes: Vec<Vec2>,
+    last_fix_t_ns: Option<i64>,
+    /// Consecutive fresh fixes on another floor (floor change after
+    /// `init_ble_fixes` of them).
+    other_floor: Option<(i32, Vec<Vec2>)>,
+    /// x^(k-1): the last output position.
+    prev: Option<Vec2>,
+    heading_rad: f64,
+    pose: Option<Pose>,
+    steps: u64,
+    pub ppc_counts: PpcCounts,
+}
+
+impl FusionSide {
+    /// A fusion task on `site`; `init` starts the particles at a known point.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        use_ppc: bool,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        let mut side = FusionSide {
+            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pf: ParticleFilter::new(&config.fusion, config.seed),
+            cfg: config.fusion.clone(),
+            use_ppc,
+            period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            floor: site.default_floor(),
+            site,
+            init_fixes: Vec::new(),
+            last_fix_t_ns: None,
+            other_floor: None,
+            prev: None,
+            heading_rad: 0.0,
+            pose: None,
+            steps: 0,
+            ppc_counts: PpcCounts::default(),
+        };
+        if let Some(i) = init {
+            if !(i.x_m.is_finite() && i.y_m.is_finite()) {
+                return Err(Error::Input(format!(
+                    "initial position ({}, {}) is not finite",
+                    i.x_m, i.y_m
+                )));
+            }
+            side.floor = i.floor;
+            side.heading_rad = i.heading_rad.filter(|h| h.is_finite()).unwrap_or(0.0);
+            side.start(Vec2::new(i.x_m, i.y_m), None);
+        }
+        Ok(side)
+    }
+
+    /// Hands one sensor sample to the PDR.
+    pub fn on_sensor(&mut self, e: &SensorEvent) {
+        self.pdr.on_sensor(e);
+    }
+
+    fn start(&mut self, at: Vec2, t_ns: Option<i64>) {
+        let spread = self.cfg.init_spread_m;
+        let map = self.site.floor(self.floor);
+        self.pf
+            .init_at(at, spread, |p| map.is_none_or(|m| m.is_walkable(p)));
+        self.prev = Some(at);
+        self.init_fixes.clear();
+        self.other_floor = None;
+        if let Some(t) = t_ns {
+            self.publish(t, at);
+        }
+    }
+
+    fn publish(&mut self, t_ns: i64, pos: Vec2) {
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: pos.x,
+            y_m: pos.y,
+            floor: self.floor,
+            heading_rad: self.heading_rad,
+            accuracy_m: self.pf.spread_m().max(0.5),
+        });
+    }
+
+    /// Takes in a new x_B: start-up averaging and floor changes. Returns the
+    /// fix when it may weight the particles.
+    fn take_fix(&mut self, t_ns: i64, fix: Option<BleFix>) -> Option<BleFix> {
+        let fix = fix?;
+        let max_age_ns = (self.cfg.ble_max_age_s * 1e9) as i64;
+        if t_ns.saturating_sub(fix.t_ns) > max_age_ns {
+            return None;
+        }
+        let fresh = self.last_fix_t_ns != Some(fix.t_ns);
+        self.last_fix_t_ns = Some(fix.t_ns);
+        let need = self.cfg.init_ble_fixes as usize;
+        if !self.pf.is_initialized() {
+            if fresh {
+                if self.init_fixes.is_empty() {
+                    self.floor = fix.floor;
+                }
+                if fix.floor != self.floor {
+                    self.init_fixes.clear();
+                    self.floor = fix.floor;
+                }
+                self.init_fixes.push(fix.pos);
+                if self.init_fixes.len() >= need {
+                    let n = self.init_fixes.len() as f64;
+                    let mean = self.init_fixes.iter().sum::<Vec2>() / n;
+                    self.start(mean, Some(t_ns));
+                }
+            }
+            return None;
+        }
+        if fix.floor != self.floor {
+            if fresh {
+                let entry = self.other_floor.get_or_insert((fix.floor, Vec::new()));
+                if entry.0 != fix.floor {
+                    *entry = (fix.floor, Vec::new());
+                }
+                entry.1.push(fix.pos);
+                if entry.1.len() >= need {
+                    let n = entry.1.len() as f64;
+                    let mean = entry.1.iter().sum::<Vec2>() / n;
+                    self.floor = fix.floor;
+                    self.start(mean, Some(t_ns));
+                }
+            }
+            return None;
+        }
+        if fresh {
+            self.other_floor = None;
+        }
+        Some(fix)
+    }
+
+    /// One fusion run at `t_ns` with the latest x_B: every step the PDR
+    /// detected since the last run moves, weights and resamples the
+    /// particles, then PPC corrects the estimate.
+    pub fn run(&mut self, t_ns: i64, x_b: Option<BleFix>) {
+        let steps: Vec<(f64, f64)> = self
+            .pdr
+            .take_steps()
+            .into_iter()
+            .map(|s| (s.length_m, s.yaw_rad))
+            .collect();
+        self.run_steps(t_ns, x_b, &steps);
+    }
+
+    /// [`FusionSide::run`] with explicit steps (length_m, yaw_rad) instead of
+    /// the PDR's pending ones (tests, other front ends).
+    pub fn run_steps(&mut self, t_ns: i64, x_b: Option<BleFix>, steps: &[(f64, f64)]) {
+        let fix = self.take_fix(t_ns, x_b);
+        if !self.pf.is_initialized() {
+            return;
+        }
+        let site = Arc::clone(&self.site);
+        let map = site.floor(self.floor);
+        let mut last = None;
+        for &(length_m, yaw_rad) in steps {
+            if !(length_m.is_finite() && yaw_rad.is_finite() && length_m >= 0.0) {
+                continue;
+            }
+            self.steps += 1;
+            self.pf.predict(length_m, yaw_rad);
+            if let Some(f) = fix {
+                self.pf.weight(f.pos);
+            }
+            let Some(x_hat) = self.pf.mean() else { return };
+            self.pf.resample();
+            let prev = self.prev.unwrap_or(x_hat);
+            let pos = match (self.use_ppc, map) {
+                (true, Some(m)) => {
+                    let o = ppc::correct(m, prev, x_hat, fix.map(|f| f.pos), &self.cfg.ppc);
+                    self.count(o.case);
+                    let n = ppc::apply_to_particles(m, &mut self.pf, x_hat, &o);
+                    self.ppc_counts.particles_replaced += n as u64;
+                    o.position
+                }
+                _ => x_hat,
+            };
+            let d = pos - prev;
+            self.heading_rad = if d.norm() > 1e-6 {
+                d.y.atan2(d.x)
+            } else {
+                yaw_rad
+            };
+            self.prev = Some(pos);
+            last = Some(pos);
+        }
+        if let Some(p) = last {
+            self.publish(t_ns, p);
+        }
+    }
+
+    fn count(&mut self, case: PpcCase) {
+        let c = &mut self.ppc_counts;
+        match case {
+            PpcCase::Free => c.free += 1,
+            PpcCase::StartOnObstacle => c.start_on_obstacle += 1,
+            PpcCase::YawCorrected { .. } => c.yaw_corrected += 1,
+            PpcCase::Blocked { .. } => c.blocked += 1,
+            PpcCase::DoorBlockedSameRoom => c.door_blocked_same_room += 1,
+            PpcCase::DoorPassed => c.door_passed += 1,
+        }
+    }
+
+    /// The latest published pose.
+    pub fn pose(&self) -> Option<Pose> {
+        self.pose
+    }
+
+    /// The particles (for plots and tests).
+    pub fn particles(&self) -> &[Vec2] {
+        self.pf.particles()
+    }
+
+    /// Steps fused so far.
+    pub fn steps(&self) -> u64 {
+        self.steps
+    }
+}
+
+/// `fpbp` / `bp`: a [`BleSide`] and a [`FusionSide`] meeting through x_B.
+pub struct FpbpEngine {
+    name: &'static str,
+    ble: BleSide,
+    fusion: FusionSide,
+    /// The latest x_B published by the BLE side.
+    x_b: Option<BleFix>,
+    stats: EngineStats,
+}
+
+impl FpbpEngine {
+    /// `use_ppc`: true for `fpbp`, false for `bp`.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        use_ppc: bool,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        config.validate()?;
+        Ok(FpbpEngine {
+            name: if use_ppc { "fpbp" } else { "bp" },
+            ble: BleSide::new(&site, config),
+            fusion: FusionSide::new(site, config, use_ppc, init)?,
+            x_b: None,
+            stats: EngineStats::default(),
+        })
+    }
+
+    /// The fusion side (particles, PPC counters).
+    pub fn fusion(&self) -> &FusionSide {
+        &self.fusion
+    }
+}
+
+impl Engine for FpbpEngine {
+    fn name(&self) -> &'static str {
+        self.name
+    }
+
+    fn on_sensor(&mut self, event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+        self.fusion.on_sensor(event);
+    }
+
+    fn on_ble(&mut self, obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+        if !self.ble.on_ble(obs) {
+            self.stats.unknown_beacons += 1;
+        }
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        match task {
+            Task::Ble => {
+                let prev = self.fusion.pose().map(|p| Vec2::new(p.x_m, p.y_m));
+                match self.ble.run(t_ns, prev) {
+                    Some(fix) => self.x_b = Some(fix),
+                    None => self.stats.no_fix += 1,
+                }
+            }
+            Task::Fusion => self.fusion.run(t_ns, self.x_b),
+        }
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        Some(match task {
+            Task::Ble => self.ble.period_ns,
+            Task::Fusion => self.fusion.period_ns,
+        })
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        self.fusion.pose()
+    }
+
+    fn ble_position(&self) -> Option<Pose> {
+        self.x_b.map(|f| Pose {
+            t_ns: f.t_ns,
+            x_m: f.pos.x,
+            y_m: f.pos.y,
+            floor: f.floor,
+            heading_rad: 0.0,
+            accuracy_m: 0.0,
+        })
+    }
+
+    fn stats(&self) -> EngineStats {
+        EngineStats {
+            steps: self.fusion.steps(),
+            ..self.stats.clone()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::map::{Feature, FloorMap};
+    use crate::site::SiteSpec;
+
+    /// 20 m x 4 m corridor at 10 px/m with 0.3 m walls all round.
+    fn corridor_site() -> Arc<Site> {
+        let spec: SiteSpec = serde_json::from_str(
+            r#"{"format": "fpbp-site", "version": 1, "name": "corridor",
+                "floors": [{"id": 0, "open_area_m": [20.0, 4.0]}]}"#,
+        )
+        .unwrap();
+        let (w, h) = (200usize, 40usize);
+        let mut f = vec![Feature::Walkable; w * h];
+        for j in 0..h {
+            for i in 0..w {
+                if i < 3 || i >= w - 3 || j < 3 || j >= h - 3 {
+                    f[j * w + i] = Feature::Wall;
+                }
+            }
+        }
+        Arc::new(Site {
+            spec,
+            floors: vec![FloorMap::from_features(w, h, 10.0, f)],
+        })
+    }
+
+    fn fix(t_ns: i64, x: f64, y: f64) -> BleFix {
+        BleFix {
+            t_ns,
+            pos: Vec2::new(x, y),
+            raw: Vec2::new(x, y),
+            floor: 0,
+            beacons: 4,
+        }
+    }
+
+    /// Walks east along the corridor with a heading bias of +0.25 rad (the
+    /// PDR drifts into the north wall); x_B is the truth plus a fixed offset.
+    fn walk(use_ppc: bool, seed: u64, with_ble: bool) -> (Vec<Vec2>, FusionSide) {
+        let site = corridor_site();
+        let cfg = EngineConfig {
+            seed,
+            ..EngineConfig::default()
+        };
+        let init = InitialPosition {
+            x_m: 1.0,
+            y_m: 2.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        let mut side = FusionSide::new(site, &cfg, use_ppc, Some(init)).unwrap();
+        let mut track = Vec::new();
+        for k in 1..=25i64 {
+            let t = k * 700_000_000;
+            let truth_x = 1.0 + 0.7 * k as f64;
+            let xb = with_ble.then(|| fix(t, truth_x + 0.5, 2.0));
+            side.run_steps(t, xb, &[(0.7, 0.25)]);
+            let p = side.pose().unwrap();
+            track.push(Vec2::new(p.x_m, p.y_m));
+        }
+        (track, side)
+    }
+
+    #[test]
+    fn same_seed_same_track() {
+        let (a, _) = walk(true, 9, true);
+        let (b, _) = walk(true, 9, true);
+        assert_eq!(a, b);
+        let (c, _) = walk(true, 10, true);
+        assert_ne!(a, c);
+    }
+
+    #[test]
+    fn ppc_keeps_the_track_and_particles_off_walls() {
+        let (track, side) = walk(true, 1, false);
+        let site = corridor_site();
+        let map = &site.floors[0];
+        assert!(track.iter().all(|p| map.is_walkable(*p)), "{track:?}");
+        assert!(side.particles().iter().all(|p| map.is_walkable(*p)));
+        assert!(side.ppc_counts.yaw_corrected + side.ppc_counts.blocked > 0);
+        // Without PPC the drifting dead reckoning leaves the corridor.
+        let (bp, _) = walk(false, 1, false);
+        assert!(bp.iter().any(|p| !map.is_walkable(*p)));
+        // With PPC the walker still makes progress east along the wall.
+        assert!(track.last().unwrap().x > 10.0, "{:?}", track.last());
+    }
+
+    #[test]
+    fn starts_at_the_mean_of_the_first_ble_fixes() {
+        let site = corridor_site();
+        let cfg = EngineConfig::default();
+        let mut side = FusionSide::new(site, &cfg, true, None).unwrap();
+        side.run_steps(1, Some(fix(1, 4.0, 2.0)), &[(0.7, 0.0)]);
+        side.run_steps(2, Some(fix(2, 5.0, 2.0)), &[]);
+        assert!(side.pose().is_none());
+        side.run_steps(3, Some(fix(3, 6.0, 1.0)), &[]);
+        let p = side.pose().unwrap();
+        assert!(
+            (p.x_m - 5.0).abs() < 1e-9 && (p.y_m - 5.0 / 3.0).abs() < 1e-9,
+            "{p:?}"
+        );
+    }
+}

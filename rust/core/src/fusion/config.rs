@@ -1,0 +1,216 @@
+//! Parameters of the fusion subsystem (particle filter and PPC).
+//!
+//! Every default and where it comes from is listed in docs/parameters.md,
+//! section "Fusion".
+
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// Resampling scheme of the particle filter (the paper cites [46] without
+/// naming one).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Resampling {
+    /// One uniform draw u ~ U[0, 1/m); pointers u + i/m.
+    Systematic,
+    /// One uniform draw per stratum: pointers (i + u_i)/m.
+    Stratified,
+}
+
+/// Parameters of the post-position correction (Algorithm 2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct PpcConfig {
+    /// phi: unit rotation angle of the candidate sequence Phi = {±j phi}, rad.
+    /// Default 0.1745 (10 degrees).
+    pub phi_rad: f64,
+    /// N: number of multiples of phi on each side (Phi has 2N elements).
+    /// Default 6 (search up to ±60 degrees).
+    pub n_angles: u32,
+    /// f: scale factor (>= 1) of the test step in eq. 39, dimensionless.
+    /// Default 1.5 (the rotated step must stay clear half a step further).
+    pub scale_f: f64,
+    /// epsilon: fraction of the estimated step moved back from the hit point
+    /// (eq. 42) or forward from the door's far side (eq. 43), dimensionless.
+    /// Default 0.1.
+    pub epsilon: f64,
+    /// alpha_0: incident-angle threshold of eq. 37, rad. A step meeting a door
+    /// at alpha > alpha_0 is deflected, otherwise it may pass. Default 1.0472
+    /// (60 degrees).
+    pub alpha0_rad: f64,
+    /// delta: update step of Raycast (Function 1), metres. Default 0.05 (the
+    /// paper's value).
+    pub raycast_step_m: f64,
+    /// Farthest distance beyond a door's hit point searched for its far side
+    /// (x_c of eq. 43), metres. Default 1.0.
+    pub door_search_m: f64,
+}
+
+impl Default for PpcConfig {
+    fn default() -> Self {
+        PpcConfig {
+            phi_rad: 10f64.to_radians(),
+            n_angles: 6,
+            scale_f: 1.5,
+            epsilon: 0.1,
+            alpha0_rad: 60f64.to_radians(),
+            raycast_step_m: 0.05,
+            door_search_m: 1.0,
+        }
+    }
+}
+
+impl PpcConfig {
+    /// Checks every field's range; errors name the field.
+    pub fn validate(&self) -> Result<()> {
+        let pos = |v: f64, name: &str| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(Error::config(format!("fusion.ppc.{name}"), "must be > 0"))
+            }
+        };
+        pos(self.phi_rad, "phi_rad")?;
+        pos(self.raycast_step_m, "raycast_step_m")?;
+        pos(self.door_search_m, "door_search_m")?;
+        if self.n_angles == 0 || self.n_angles as f64 * self.phi_rad > std::f64::consts::PI {
+            return Err(Error::config(
+                "fusion.ppc.n_angles",
+                "must be >= 1 and n_angles * phi_rad <= pi",
+            ));
+        }
+        if !(self.scale_f.is_finite() && self.scale_f >= 1.0) {
+            return Err(Error::config("fusion.ppc.scale_f", "must be >= 1"));
+        }
+        if !(self.epsilon.is_finite() && (0.0..=1.0).contains(&self.epsilon)) {
+            return Err(Error::config("fusion.ppc.epsilon", "must be in [0, 1]"));
+        }
+        if !(self.alpha0_rad.is_finite()
+            && (0.0..=std::f64::consts::FRAC_PI_2).contains(&self.alpha0_rad))
+        {
+            return Err(Error::config(
+                "fusion.ppc.alpha0_rad",
+                "must be in [0, pi/2]",
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Parameters of the fusion subsystem: the particle filter (Sec. IV-C) and PPC.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FusionConfig {
+    /// m: number of particles. Default 1000.
+    pub particle_count: usize,
+    /// Half-width of the uniform step-length noise nu_s of eq. 34, metres.
+    /// Default 0.15.
+    pub step_noise_m: f64,
+    /// Half-width of the uniform heading noise nu_theta of eq. 34, rad.
+    /// Default 0.35 (20 degrees).
+    pub heading_noise_rad: f64,
+    /// sigma_x: standard deviation of the BLE likelihood of eq. 36, metres.
+    /// Default 3.0.
+    pub sigma_x_m: f64,
+    /// Resampling scheme. Default `systematic`.
+    pub resampling: Resampling,
+    /// Number of first BLE positions averaged into the start position
+    /// (x̄_B^(0), Sec. IV-C). Default 3.
+    pub init_ble_fixes: u32,
+    /// Radius of the uniform disc the particles start in around the start
+    /// position, metres (0 = all on the start point, as in the paper).
+    /// Default 0.0.
+    pub init_spread_m: f64,
+    /// A BLE position older than this is not used to weight particles (the
+    /// filter dead-reckons on the map instead), seconds. Default 5.0.
+    pub ble_max_age_s: f64,
+    /// Post-position correction (Algorithm 2).
+    pub ppc: PpcConfig,
+}
+
+impl Default for FusionConfig {
+    fn default() -> Self {
+        FusionConfig {
+            particle_count: 1000,
+            step_noise_m: 0.15,
+            heading_noise_rad: 20f64.to_radians(),
+            sigma_x_m: 3.0,
+            resampling: Resampling::Systematic,
+            init_ble_fixes: 3,
+            init_spread_m: 0.0,
+            ble_max_age_s: 5.0,
+            ppc: PpcConfig::default(),
+        }
+    }
+}
+
+impl FusionConfig {
+    /// Checks every field's range; errors name the field.
+    pub fn validate(&self) -> Result<()> {
+        if self.particle_count == 0 || self.particle_count > 1_000_000 {
+            return Err(Error::config(
+                "fusion.particle_count",
+                "must be in 1..=1000000",
+            ));
+        }
+        let nonneg = |v: f64, name: &str| {
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(Error::config(format!("fusion.{name}"), "must be >= 0"))
+            }
+        };
+        nonneg(self.step_noise_m, "step_noise_m")?;
+        nonneg(self.heading_noise_rad, "heading_noise_rad")?;
+        nonneg(self.init_spread_m, "init_spread_m")?;
+        nonneg(self.ble_max_age_s, "ble_max_age_s")?;
+        if !(self.sigma_x_m.is_finite() && self.sigma_x_m > 0.0) {
+            return Err(Error::config("fusion.sigma_x_m", "must be > 0"));
+        }
+        if self.init_ble_fixes == 0 {
+            return Err(Error::config("fusion.init_ble_fixes", "must be >= 1"));
+        }
+        self.ppc.validate()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_validate() {
+        FusionConfig::default().validate().unwrap();
+    }
+
+    #[test]
+    fn bad_field_is_named() {
+        let c = FusionConfig {
+            ppc: PpcConfig {
+                scale_f: 0.5,
+                ..PpcConfig::default()
+            },
+            ..FusionConfig::default()
+        };
+        let e = c.validate().unwrap_err().to_string();
+        assert!(e.contains("fusion.ppc.scale_f"), "{e}");
+        let c = FusionConfig {
+            sigma_x_m: 0.0,
+            ..FusionConfig::default()
+        };
+        assert!(c.validate().unwrap_err().to_string().contains("sigma_x_m"));
+    }
+
+    #[test]
+    fn unknown_field_is_rejected() {
+        let r: std::result::Result<FusionConfig, _> =
+            serde_json::from_str(r#"{"particle_count": 10, "bogus": 1}"#);
+        assert!(r.is_err());
+        let c: FusionConfig =
+            serde_json::from_str(r#"{"particle_count": 10, "resampling": "stratified"}"#).unwrap();
+        assert_eq!(c.particle_count, 10);
+        assert_eq!(c.resampling, Resampling::Stratified);
+        assert_eq!(c.ppc, PpcConfig::default());
+    }
+}

@@ -1,0 +1,318 @@
+//! The particle filter of FP-BP Sec. IV-C.
+//!
+//! State: particle positions x_i in the MCS with weights w_i. One PDR step
+//! moves every particle by eq. 34 (uniform step-length and heading noise),
+//! weights come from the BLE position x_B by eq. 36 and are normalised, the
+//! estimate is the weighted particle mean (eq. 35b), then the particles are
+//! resampled (systematic or stratified). The filter owns its seeded RNG.
+
+use rand::{RngExt, SeedableRng};
+use rand_pcg::Pcg64;
+
+use super::config::{FusionConfig, Resampling};
+use crate::Vec2;
+
+/// Particles, weights and the RNG that moves and resamples them.
+#[derive(Debug, Clone)]
+pub struct ParticleFilter {
+    particles: Vec<Vec2>,
+    weights: Vec<f64>,
+    scratch: Vec<Vec2>,
+    rng: Pcg64,
+    count: usize,
+    step_noise_m: f64,
+    heading_noise_rad: f64,
+    sigma_x_m: f64,
+    resampling: Resampling,
+}
+
+impl ParticleFilter {
+    /// An empty filter (no particles until [`ParticleFilter::init_at`]).
+    /// `config` must have been validated.
+    pub fn new(config: &FusionConfig, seed: u64) -> Self {
+        let count = config.particle_count.max(1);
+        ParticleFilter {
+            particles: Vec::with_capacity(count),
+            weights: Vec::with_capacity(count),
+            scratch: Vec::with_capacity(count),
+            rng: Pcg64::seed_from_u64(seed),
+            count,
+            step_noise_m: config.step_noise_m,
+            heading_noise_rad: config.heading_noise_rad,
+            sigma_x_m: config.sigma_x_m,
+            resampling: config.resampling,
+        }
+    }
+
+    /// Whether the filter has particles.
+    pub fn is_initialized(&self) -> bool {
+        !self.particles.is_empty()
+    }
+
+    /// Places the m particles at `start` (x_i^(0) = x̄_B^(0), w_i = 1/m), or
+    /// uniformly in a disc of radius `spread_m` around it when `spread_m > 0`.
+    /// `accept` may reject a drawn point (e.g. one inside a wall); a rejected
+    /// draw falls back to `start` after a few tries.
+    pub fn init_at(&mut self, start: Vec2, spread_m: f64, accept: impl Fn(Vec2) -> bool) {
+        self.particles.clear();
+        self.weights.clear();
+        let w = 1.0 / self.count as f64;
+        for _ in 0..self.count {
+            let mut p = start;
+            if spread_m > 0.0 {
+                for _ in 0..8 {
+                    let r = spread_m * self.rng.random::<f64>().sqrt();
+                    let a = std::f64::consts::TAU * self.rng.random::<f64>();
+                    let q = start + Vec2::new(r * a.cos(), r * a.sin());
+                    if accept(q) {
+                        p = q;
+                        break;
+                    }
+                }
+            }
+            self.particles.push(p);
+            self.weights.push(w);
+        }
+    }
+
+    /// State transition, eq. 34: every particle moves by
+    /// (s + nu_s) [cos(theta + nu_theta), sin(theta + nu_theta)] with nu_s,
+    /// nu_theta uniform in ±step_noise_m, ±heading_noise_rad.
+    pub fn predict(&mut self, step_length_m: f64, yaw_rad: f64) {
+        let (ds, dth) = (self.step_noise_m, self.heading_noise_rad);
+        for p in &mut self.particles {
+            let nu_s = ds * (2.0 * self.rng.random::<f64>() - 1.0);
+            let nu_th = dth * (2.0 * self.rng.random::<f64>() - 1.0);
+            let len = (step_length_m + nu_s).max(0.0);
+            let (s, c) = (yaw_rad + nu_th).sin_cos();
+            *p += Vec2::new(len * c, len * s);
+        }
+    }
+
+    /// Weights of eq. 36 against the BLE position `x_b`, normalised to sum 1.
+    /// The constant 1/sqrt(2 pi sigma^2) cancels in the normalisation; the
+    /// exponent is shifted by its maximum so far-away fixes do not underflow.
+    pub fn weight(&mut self, x_b: Vec2) {
+        if self.particles.is_empty() {
+            return;
+        }
+        let inv = 1.0 / (2.0 * self.sigma_x_m * self.sigma_x_m);
+        let d2min = self
+            .particles
+            .iter()
+            .map(|p| (p - x_b).norm_squared())
+            .fold(f64::INFINITY, f64::min);
+        for (w, p) in self.weights.iter_mut().zip(&self.particles) {
+            *w = (-((p - x_b).norm_squared() - d2min) * inv).exp();
+        }
+        self.normalize();
+    }
+
+    /// Normalises the weights to sum 1 (uniform when they are all zero or not finite).
+    pub fn normalize(&mut self) {
+        let sum: f64 = self.weights.iter().sum();
+        if sum.is_finite() && sum > 0.0 {
+            for w in &mut self.weights {
+                *w /= sum;
+            }
+        } else {
+            let u = 1.0 / self.weights.len().max(1) as f64;
+            self.weights.iter_mut().for_each(|w| *w = u);
+        }
+    }
+
+    /// Resamples m particles by the configured scheme; weights become 1/m.
+    pub fn resample(&mut self) {
+        let m = self.particles.len();
+        if m == 0 {
+            return;
+        }
+        let inv_m = 1.0 / m as f64;
+        self.scratch.clear();
+        let mut cum = self.weights[0];
+        let mut j = 0usize;
+        let u0: f64 = self.rng.random::<f64>();
+        for i in 0..m {
+            let u = match self.resampling {
+                Resampling::Systematic => (i as f64 + u0) * inv_m,
+                Resampling::Stratified => (i as f64 + self.rng.random::<f64>()) * inv_m,
+            };
+            while u > cum && j + 1 < m {
+                j += 1;
+                cum += self.weights[j];
+            }
+            self.scratch.push(self.particles[j]);
+        }
+        std::mem::swap(&mut self.particles, &mut self.scratch);
+        self.weights.iter_mut().for_each(|w| *w = inv_m);
+    }
+
+    /// The weighted mean of the particles, eq. 35b (`None` without particles).
+    pub fn mean(&self) -> Option<Vec2> {
+        if self.particles.is_empty() {
+            return None;
+        }
+        let mut s = Vec2::zeros();
+        for (p, w) in self.particles.iter().zip(&self.weights) {
+            s += p * *w;
+        }
+        Some(s)
+    }
+
+    /// Root-mean-square distance of the particles from their weighted mean, metres.
+    pub fn spread_m(&self) -> f64 {
+        let Some(m) = self.mean() else { return 0.0 };
+        self.particles
+            .iter()
+            .zip(&self.weights)
+            .map(|(p, w)| w * (p - m).norm_squared())
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    /// Eq. 44: shifts every particle by `delta` (= x^(k) - x̂).
+    pub fn shift(&mut self, delta: Vec2) {
+        for p in &mut self.particles {
+            *p += delta;
+        }
+    }
+
+    /// Replaces every particle for which `bad` holds by a copy of a random
+    /// particle for which it does not (drawn with the filter's RNG), or by
+    /// `fallback` when every particle is bad. Returns how many were replaced.
+    pub fn replace_invalid(&mut self, bad: impl Fn(Vec2) -> bool, fallback: Vec2) -> usize {
+        let mut good: Vec<usize> = Vec::new();
+        let mut bad_idx: Vec<usize> = Vec::new();
+        for (i, p) in self.particles.iter().enumerate() {
+            if bad(*p) {
+                bad_idx.push(i);
+            } else {
+                good.push(i);
+            }
+        }
+        for &i in &bad_idx {
+            self.particles[i] = if good.is_empty() {
+                fallback
+            } else {
+                let k =
+                    ((self.rng.random::<f64>() * good.len() as f64) as usize).min(good.len() - 1);
+                self.particles[good[k]]
+            };
+        }
+        bad_idx.len()
+    }
+
+    /// Particle positions.
+    pub fn particles(&self) -> &[Vec2] {
+        &self.particles
+    }
+
+    /// Normalised weights (same order as [`ParticleFilter::particles`]).
+    pub fn weights(&self) -> &[f64] {
+        &self.weights
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
+        let cfg = FusionConfig {
+            particle_count: m,
+            resampling,
+            ..FusionConfig::default()
+        };
+        ParticleFilter::new(&cfg, seed)
+    }
+
+    #[test]
+    fn init_puts_all_particles_on_start() {
+        let mut pf = filter(100, Resampling::Systematic, 1);
+        pf.init_at(Vec2::new(3.0, 4.0), 0.0, |_| true);
+        assert_eq!(pf.particles().len(), 100);
+        assert!(pf.particles().iter().all(|p| *p == Vec2::new(3.0, 4.0)));
+        assert!((pf.weights().iter().sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn predict_moves_mean_by_step() {
+        let mut pf = filter(2000, Resampling::Systematic, 7);
+        pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        for _ in 0..10 {
+            pf.predict(0.7, std::f64::consts::FRAC_PI_2);
+        }
+        let m = pf.mean().unwrap();
+        // 10 steps of 0.7 m north, shortened slightly by the heading noise (E cos nu ~ 0.98).
+        assert!(m.x.abs() < 0.1, "{m:?}");
+        assert!((m.y - 6.86).abs() < 0.15, "{m:?}");
+    }
+
+    #[test]
+    fn weighting_and_resampling_pull_towards_ble() {
+        let mut pf = filter(1000, Resampling::Stratified, 3);
+        pf.init_at(Vec2::zeros(), 5.0, |_| true);
+        pf.weight(Vec2::new(3.0, 0.0));
+        let m = pf.mean().unwrap();
+        assert!(m.x > 1.0, "weighted mean moves towards x_B: {m:?}");
+        pf.resample();
+        let m2 = pf.mean().unwrap();
+        assert!(
+            (m2 - m).norm() < 0.5,
+            "resampling keeps the mean: {m:?} {m2:?}"
+        );
+    }
+
+    #[test]
+    fn far_fix_does_not_underflow() {
+        let mut pf = filter(50, Resampling::Systematic, 3);
+        pf.init_at(Vec2::zeros(), 1.0, |_| true);
+        pf.weight(Vec2::new(1e4, 0.0));
+        let s: f64 = pf.weights().iter().sum();
+        assert!((s - 1.0).abs() < 1e-9 && pf.weights().iter().all(|w| w.is_finite()));
+    }
+
+    #[test]
+    fn same_seed_same_particles() {
+        let run = |seed| {
+            let mut pf = filter(200, Resampling::Systematic, seed);
+            pf.init_at(Vec2::new(1.0, 1.0), 1.0, |_| true);
+            for k in 0..20 {
+                pf.predict(0.7, k as f64 * 0.1);
+                pf.weight(Vec2::new(k as f64 * 0.5, 2.0));
+                pf.resample();
+            }
+            pf.particles().to_vec()
+        };
+        assert_eq!(run(5), run(5));
+        assert_ne!(run(5), run(6));
+    }
+
+    proptest! {
+        #[test]
+        fn weights_sum_to_one_and_resampling_keeps_count(
+            m in 1usize..400,
+            seed in 0u64..1000,
+            stratified in any::<bool>(),
+            bx in -50.0f64..50.0, by in -50.0f64..50.0,
+            spread in 0.0f64..20.0,
+        ) {
+            let scheme = if stratified { Resampling::Stratified } else { Resampling::Systematic };
+            let mut pf = filter(m, scheme, seed);
+            pf.init_at(Vec2::zeros(), spread, |_| true);
+            pf.predict(0.7, 0.3);
+            pf.weight(Vec2::new(bx, by));
+            let s: f64 = pf.weights().iter().sum();
+            prop_assert!((s - 1.0).abs() < 1e-9);
+            prop_assert!(pf.weights().iter().all(|w| *w >= 0.0));
+            let before: Vec<Vec2> = pf.particles().to_vec();
+            pf.resample();
+            prop_assert_eq!(pf.particles().len(), m);
+            let s: f64 = pf.weights().iter().sum();
+            prop_assert!((s - 1.0).abs() < 1e-9);
+            // Resampling only copies existing particles.
+            prop_assert!(pf.particles().iter().all(|p| before.contains(p)));
+        }
+    }
+}

@@ -1,0 +1,551 @@
+//! Post-position correction, FP-BP Sec. IV-D and Algorithm 2.
+//!
+//! Given the previous output position x^(k-1) and the filter's estimate x̂,
+//! [`correct`] raycasts from x^(k-1) to x̂ (Function 1). Without a hit the
+//! estimate stands. A Wall hit corrects the yaw: the step ŝ = x̂ - x^(k-1) is
+//! rotated through Phi = [+phi, -phi, +2phi, -2phi, ...] and the first angle
+//! whose scaled test step (eq. 39, factor f) is free wins (Case 1, eq. 41);
+//! when none is free the step is cut back to just before the hit point (Case
+//! 2, eq. 42). A Door hit first measures the incident angle alpha (eq. 37)
+//! against the door's normal: above alpha_0 the step is deflected like a wall
+//! hit, but only towards the side of increasing incident angle (alpha+ vs
+//! alpha-); otherwise the room of x_B decides (eq. 43): still the previous
+//! room -> blocked (Case 2), another room -> the step passes the door and
+//! lands just beyond its far side x_c (Case 3). [`apply_to_particles`] then
+//! shifts the particles by x^(k) - x̂ (eq. 44).
+
+use super::{config::PpcConfig, particle_filter::ParticleFilter};
+use crate::{
+    Vec2,
+    geometry::{included_angle, rotate},
+    map::{Feature, FloorMap, RayHit},
+};
+
+/// The map queries PPC needs. Implemented for [`FloorMap`].
+pub trait PlanQueries {
+    /// M(x) as a class (eq. 25); outside the plan is Wall.
+    fn feature_at(&self, p: Vec2) -> Feature;
+    /// Function 1: first obstacle sample from `from` towards `to`.
+    fn raycast_from(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit>;
+    /// Unit normal of the obstacle at `p` (image gradient of eq. 24 in the
+    /// MCS), pointing out of the obstacle; `None` where it is undefined.
+    /// PPC orients it towards the side the step comes from.
+    fn obstacle_normal(&self, p: Vec2) -> Option<Vec2>;
+    /// The room (walkable contour) containing `p`, `None` on obstacles.
+    fn room_id(&self, p: Vec2) -> Option<u32>;
+}
+
+/// Which branch of Algorithm 2 produced the position.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PpcCase {
+    /// No obstacle between x^(k-1) and x̂: no correction.
+    Free,
+    /// The previous position itself is on an obstacle (h = x^(k-1)): no correction (line 3).
+    StartOnObstacle,
+    /// Case 1: the step was rotated by `phi_rad` (eq. 41); `hit` is what it met.
+    YawCorrected { phi_rad: f64, hit: Feature },
+    /// Case 2 by eq. 42: no candidate angle was free; the step stops before the hit.
+    Blocked { hit: Feature },
+    /// Case 2 by eq. 43: the step met a door head-on but x_B is still in the previous room.
+    DoorBlockedSameRoom,
+    /// Case 3 by eq. 43: the step passes the door.
+    DoorPassed,
+}
+
+/// Result of [`correct`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PpcOutcome {
+    /// x^(k): the corrected position.
+    pub position: Vec2,
+    pub case: PpcCase,
+    /// Incident angle alpha of eq. 37 when the step met a door, rad.
+    pub alpha_rad: Option<f64>,
+}
+
+/// Algorithm 2: corrects the estimate `x_hat` given the previous position
+/// `prev` (x^(k-1)) and the latest BLE position `x_b` (for the room test;
+/// without it, or when it lies on no room, a head-on door step passes).
+pub fn correct<M: PlanQueries + ?Sized>(
+    map: &M,
+    prev: Vec2,
+    x_hat: Vec2,
+    x_b: Option<Vec2>,
+    cfg: &PpcConfig,
+) -> PpcOutcome {
+    let s_hat = x_hat - prev;
+    let free = PpcOutcome {
+        position: x_hat,
+        case: PpcCase::Free,
+        alpha_rad: None,
+    };
+    // Function 1 may stop short of x̂ (N is rounded): test x̂ itself too.
+    let hit = map
+        .raycast_from(prev, x_hat, cfg.raycast_step_m)
+        .or_else(|| {
+            let f = map.feature_at(x_hat);
+            f.is_obstacle().then_some(RayHit {
+                point: x_hat,
+                feature: f,
+            })
+        });
+    let Some(hit) = hit else {
+        return free;
+    };
+    if hit.point == prev {
+        return PpcOutcome {
+            case: PpcCase::StartOnObstacle,
+            ..free
+        };
+    }
+    let n = cfg.n_angles as i32;
+    // Phi in ascending |phi|: +phi, -phi, +2phi, -2phi, ...
+    let mut phis: Vec<f64> = (1..=n)
+        .flat_map(|j| [j as f64 * cfg.phi_rad, -(j as f64) * cfg.phi_rad])
+        .collect();
+    let mut alpha_rad = None;
+    let correct_yaw = if hit.feature == Feature::Door {
+        let normal = map
+            .obstacle_normal(hit.point)
+            .map(|nv| if nv.dot(&(-s_hat)) < 0.0 { -nv } else { nv });
+        match normal {
+            Some(nh) => {
+                let alpha = included_angle(nh, -s_hat);
+                alpha_rad = Some(alpha);
+                if alpha > cfg.alpha0_rad {
+                    let a_plus = included_angle(nh, -rotate(s_hat, cfg.phi_rad));
+                    let a_minus = included_angle(nh, -rotate(s_hat, -cfg.phi_rad));
+                    let positive = a_plus > a_minus;
+                    phis.retain(|p| (*p > 0.0) == positive);
+                    true
+                } else {
+                    false
+                }
+            }
+            // No normal (an isolated door pixel): treat the door like a wall.
+            None => true,
+        }
+    } else {
+        true
+    };
+
+    if correct_yaw {
+        // Eq. 40: the smallest |phi'| whose scaled test step is free.
+        for &phi in &phis {
+            let x_t = prev + rotate(s_hat, phi) * cfg.scale_f;
+            if map.raycast_from(prev, x_t, cfg.raycast_step_m).is_none()
+                && map.feature_at(x_t) == Feature::Walkable
+            {
+                let pos = prev + rotate(s_hat, phi);
+                return PpcOutcome {
+                    position: if map.feature_at(pos) == Feature::Walkable {
+                        pos
+                    } else {
+                        back_off(map, prev, s_hat, hit.point, cfg)
+                    },
+                    case: PpcCase::YawCorrected {
+                        phi_rad: phi,
+                        hit: hit.feature,
+                    },
+                    alpha_rad,
+                };
+            }
+        }
+        return PpcOutcome {
+            position: back_off(map, prev, s_hat, hit.point, cfg),
+            case: PpcCase::Blocked { hit: hit.feature },
+            alpha_rad,
+        };
+    }
+
+    // Door met head-on: has the room changed (eq. 43)?
+    let room_prev = map.room_id(prev);
+    let room_b = x_b.and_then(|b| map.room_id(b));
+    let same_room = room_prev.is_some() && room_b == room_prev;
+    if !same_room && let Some(x_c) = far_side_of_door(map, hit.point, s_hat, cfg) {
+        let pos = x_c + s_hat * cfg.epsilon;
+        return PpcOutcome {
+            position: if map.feature_at(pos) == Feature::Walkable {
+                pos
+            } else {
+                x_c
+            },
+            case: PpcCase::DoorPassed,
+            alpha_rad,
+        };
+    }
+    PpcOutcome {
+        position: back_off(map, prev, s_hat, hit.point, cfg),
+        case: if same_room {
+            PpcCase::DoorBlockedSameRoom
+        } else {
+            PpcCase::Blocked { hit: hit.feature }
+        },
+        alpha_rad,
+    }
+}
+
+/// Eq. 42: h - epsilon ŝ; when that is not walkable (a thin corner), the last
+/// walkable raycast sample before h, else `prev`.
+fn back_off<M: PlanQueries + ?Sized>(
+    map: &M,
+    prev: Vec2,
+    s_hat: Vec2,
+    h: Vec2,
+    cfg: &PpcConfig,
+) -> Vec2 {
+    let p = h - s_hat * cfg.epsilon;
+    if map.feature_at(p) == Feature::Walkable
+        && map.raycast_from(prev, p, cfg.raycast_step_m).is_none()
+    {
+        return p;
+    }
+    let len = s_hat.norm();
+    if len > 0.0 {
+        let dir = s_hat / len;
+        let dist = (h - prev).norm();
+        let mut d = dist - cfg.raycast_step_m;
+        while d > 0.0 {
+            let q = prev + dir * d;
+            if map.feature_at(q) == Feature::Walkable {
+                return q;
+            }
+            d -= cfg.raycast_step_m;
+        }
+    }
+    prev
+}
+
+/// x_c of eq. 43: the first walkable point beyond the door along ŝ, searched
+/// up to `door_search_m` past the hit point.
+fn far_side_of_door<M: PlanQueries + ?Sized>(
+    map: &M,
+    h: Vec2,
+    s_hat: Vec2,
+    cfg: &PpcConfig,
+) -> Option<Vec2> {
+    let len = s_hat.norm();
+    if len == 0.0 {
+        return None;
+    }
+    let dir = s_hat / len;
+    let n = (cfg.door_search_m / cfg.raycast_step_m).ceil() as usize;
+    (1..=n)
+        .map(|k| h + dir * (k as f64 * cfg.raycast_step_m))
+        .take_while(|q| map.feature_at(*q) != Feature::Wall)
+        .find(|q| map.feature_at(*q) == Feature::Walkable)
+}
+
+/// Eq. 44 plus the wall rule: shifts every particle by x^(k) - x̂, then
+/// replaces each particle left on an obstacle (Wall or Door) by a copy of a
+/// random walkable particle (or by x^(k) when none is walkable), so no
+/// particle ends inside a wall. Returns how many particles were replaced.
+pub fn apply_to_particles<M: PlanQueries + ?Sized>(
+    map: &M,
+    pf: &mut ParticleFilter,
+    x_hat: Vec2,
+    outcome: &PpcOutcome,
+) -> usize {
+    let delta = outcome.position - x_hat;
+    if delta != Vec2::zeros() {
+        pf.shift(delta);
+    }
+    pf.replace_invalid(|p| map.feature_at(p) != Feature::Walkable, outcome.position)
+}
+
+impl PlanQueries for FloorMap {
+    fn feature_at(&self, p: Vec2) -> Feature {
+        self.feature(p)
+    }
+
+    fn raycast_from(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
+        self.raycast(from, to, step_m)
+    }
+
+    fn obstacle_normal(&self, p: Vec2) -> Option<Vec2> {
+        self.normal_at(p)
+            .or_else(|| principal_axes::obstacle_normal(self, p))
+    }
+
+    fn room_id(&self, p: Vec2) -> Option<u32> {
+        self.room_of(p)
+    }
+}
+
+/// Fallback normal where the image gradient vanishes (a one-pixel door in a
+/// one-pixel wall line is symmetric, so its gradient is zero).
+mod principal_axes {
+    use super::*;
+    /// Normal from the principal axes of the obstacle pixels of the same
+    /// feature near `p` (radius 3 px): the minor axis is the normal.
+    pub fn obstacle_normal(map: &FloorMap, p: Vec2) -> Option<Vec2> {
+        let (ci, cj) = map.pixel_of(p)?;
+        let f = map.feature_px(ci as isize, cj as isize);
+        if !f.is_obstacle() {
+            return None;
+        }
+        let r = 3isize;
+        let (mut n, mut sx, mut sy) = (0.0, 0.0, 0.0);
+        let mut pts = Vec::new();
+        for dj in -r..=r {
+            for di in -r..=r {
+                let (i, j) = (ci as isize + di, cj as isize + dj);
+                if di * di + dj * dj <= r * r && map.feature_px(i, j) == f {
+                    // MCS orientation: x right, y up.
+                    let (x, y) = (di as f64, -(dj as f64));
+                    pts.push((x, y));
+                    n += 1.0;
+                    sx += x;
+                    sy += y;
+                }
+            }
+        }
+        if n < 2.0 {
+            return None;
+        }
+        let (mx, my) = (sx / n, sy / n);
+        let (mut cxx, mut cxy, mut cyy) = (0.0, 0.0, 0.0);
+        for (x, y) in pts {
+            cxx += (x - mx) * (x - mx);
+            cxy += (x - mx) * (y - my);
+            cyy += (y - my) * (y - my);
+        }
+        // Major axis angle of the 2x2 covariance; the normal is perpendicular.
+        let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+        Some(Vec2::new(-theta.sin(), theta.cos()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fusion::FusionConfig;
+    use proptest::prelude::*;
+
+    /// 10 m x 6 m at 10 px/m: border walls (2 px), a wall at x in [5.0, 5.2)
+    /// splitting room A (left) from room B (right), with a door in it for
+    /// y in [2.5, 3.5).
+    fn two_rooms() -> FloorMap {
+        let (w, h, r) = (100usize, 60usize, 10.0);
+        let mut f = vec![Feature::Walkable; w * h];
+        for j in 0..h {
+            for i in 0..w {
+                let y_m = (h - j) as f64 / r - 0.05; // pixel centre, MCS
+                let border = i < 2 || i >= w - 2 || j < 2 || j >= h - 2;
+                let mid = i == 50 || i == 51;
+                f[j * w + i] = if border {
+                    Feature::Wall
+                } else if mid {
+                    if (2.5..3.5).contains(&y_m) {
+                        Feature::Door
+                    } else {
+                        Feature::Wall
+                    }
+                } else {
+                    Feature::Walkable
+                };
+            }
+        }
+        FloorMap::from_features(w, h, r, f)
+    }
+
+    fn cfg() -> PpcConfig {
+        PpcConfig::default()
+    }
+
+    fn step(len: f64, deg: f64) -> Vec2 {
+        let a = deg.to_radians();
+        Vec2::new(len * a.cos(), len * a.sin())
+    }
+
+    fn close(a: Vec2, b: Vec2) -> bool {
+        (a - b).norm() < 1e-9
+    }
+
+    #[test]
+    fn plan_is_what_the_tests_assume() {
+        let m = two_rooms();
+        assert_eq!(m.feature(Vec2::new(5.1, 1.0)), Feature::Wall);
+        assert_eq!(m.feature(Vec2::new(5.1, 3.0)), Feature::Door);
+        assert_eq!(m.feature(Vec2::new(4.9, 3.0)), Feature::Walkable);
+        assert_eq!(m.feature(Vec2::new(5.25, 3.0)), Feature::Walkable);
+        let a = m.room_id(Vec2::new(2.0, 2.0));
+        assert!(a.is_some());
+        assert_eq!(a, m.room_id(Vec2::new(4.9, 5.0)));
+        assert_ne!(a, m.room_id(Vec2::new(7.0, 2.0)));
+        // The door's normal is horizontal (either sign).
+        let n = m.obstacle_normal(Vec2::new(5.05, 3.0)).unwrap();
+        assert!(n.x.abs() > 0.99, "{n:?}");
+    }
+
+    #[test]
+    fn free_step_is_not_corrected() {
+        let m = two_rooms();
+        let prev = Vec2::new(2.0, 2.0);
+        let x_hat = prev + step(0.7, 30.0);
+        let o = correct(&m, prev, x_hat, None, &cfg());
+        assert_eq!(o.case, PpcCase::Free);
+        assert_eq!(o.position, x_hat);
+    }
+
+    /// Fig. 5(a), Case 1: a step meeting a wall at a grazing angle is rotated
+    /// by the smallest free angle of Phi (here +30 degrees, away from the wall)
+    /// and keeps its length (eq. 41).
+    #[test]
+    fn case1_wall_grazing_step_is_rotated() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.7, 1.0);
+        let s = step(0.7, 40.0);
+        let o = correct(&m, prev, prev + s, None, &cfg());
+        let PpcCase::YawCorrected { phi_rad, hit } = o.case else {
+            panic!("expected Case 1, got {:?}", o.case)
+        };
+        assert_eq!(hit, Feature::Wall);
+        // Only 0.3 m of room before the wall: 1.5 * 0.7 * cos(heading) must
+        // stay below it, which first holds at +40 degrees (heading 80 degrees).
+        assert!((phi_rad - 40f64.to_radians()).abs() < 1e-9, "{phi_rad}");
+        let expect = prev + rotate(s, phi_rad);
+        assert!(close(o.position, expect));
+        assert!(
+            phi_rad > 0.0,
+            "rotates away from the wall (towards +y), got {phi_rad}"
+        );
+        // Every smaller candidate was blocked, this one is free at scale f.
+        let c = cfg();
+        assert!(
+            m.raycast(
+                prev,
+                prev + rotate(s, phi_rad) * c.scale_f,
+                c.raycast_step_m
+            )
+            .is_none()
+        );
+        assert!(
+            m.raycast(
+                prev,
+                prev + rotate(s, phi_rad - c.phi_rad) * c.scale_f,
+                c.raycast_step_m
+            )
+            .is_some()
+        );
+        assert!(m.is_walkable(o.position));
+        assert!((o.position - prev).norm() - 0.7 < 1e-9);
+    }
+
+    /// Fig. 5(b), Case 2: a step straight into a wall finds no free angle
+    /// within Phi and is cut back to h - epsilon ŝ (eq. 42).
+    #[test]
+    fn case2_wall_head_on_step_is_blocked() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.5, 1.0);
+        let s = step(0.8, 0.0);
+        let o = correct(&m, prev, prev + s, None, &cfg());
+        assert_eq!(o.case, PpcCase::Blocked { hit: Feature::Wall });
+        // h is the first raycast sample on the wall: x = 5.0.
+        assert!(
+            close(o.position, Vec2::new(5.0 - 0.1 * 0.8, 1.0)),
+            "{:?}",
+            o.position
+        );
+        assert!(m.is_walkable(o.position));
+    }
+
+    /// Fig. 6(a), Case 2 at a door: head-on (alpha < alpha_0) but x_B is still
+    /// in the previous room, so the step stops before the door (eq. 43, first line).
+    #[test]
+    fn case2_door_head_on_same_room_is_blocked() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.5, 3.0);
+        let s = step(0.8, 10.0);
+        let x_b = Vec2::new(3.0, 3.0);
+        let o = correct(&m, prev, prev + s, Some(x_b), &cfg());
+        assert_eq!(o.case, PpcCase::DoorBlockedSameRoom);
+        assert!(o.alpha_rad.unwrap() < cfg().alpha0_rad);
+        let h = m.raycast(prev, prev + s, 0.05).unwrap();
+        assert_eq!(h.feature, Feature::Door);
+        assert!(close(o.position, h.point - s * 0.1));
+        assert!(o.position.x < 5.0);
+    }
+
+    /// Fig. 6(b), Case 3: head-on at the door and x_B in the next room: the
+    /// step passes and lands epsilon ŝ beyond the door's far side x_c (eq. 43).
+    #[test]
+    fn case3_door_head_on_room_changed_passes() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.5, 3.0);
+        let s = step(0.8, 10.0);
+        let x_b = Vec2::new(6.5, 3.0);
+        let o = correct(&m, prev, prev + s, Some(x_b), &cfg());
+        assert_eq!(o.case, PpcCase::DoorPassed);
+        assert!(o.position.x > 5.2, "{:?}", o.position);
+        assert!(
+            o.position.x < 5.2 + 0.05 + 0.1 * 0.8 + 1e-9,
+            "{:?}",
+            o.position
+        );
+        assert!(m.is_walkable(o.position));
+        assert_eq!(m.room_id(o.position), m.room_id(x_b));
+    }
+
+    /// A door met at a grazing angle (alpha > alpha_0) is not passed: the
+    /// step is deflected towards increasing incident angle (into the room).
+    #[test]
+    fn door_grazing_step_is_deflected_into_the_room() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.8, 2.6);
+        let s = step(0.8, 70.0);
+        let x_b = Vec2::new(6.5, 3.0);
+        let o = correct(&m, prev, prev + s, Some(x_b), &cfg());
+        assert!(o.alpha_rad.unwrap() > cfg().alpha0_rad);
+        let PpcCase::YawCorrected { phi_rad, hit } = o.case else {
+            panic!("expected a deflection, got {:?}", o.case)
+        };
+        assert_eq!(hit, Feature::Door);
+        assert!(
+            phi_rad > 0.0,
+            "rotates towards +y (away from the door), got {phi_rad}"
+        );
+        assert!(o.position.x < 5.0);
+        assert_eq!(m.room_id(o.position), m.room_id(prev));
+    }
+
+    #[test]
+    fn without_ble_a_head_on_door_step_passes() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.5, 3.0);
+        let o = correct(&m, prev, prev + step(0.8, 0.0), None, &cfg());
+        assert_eq!(o.case, PpcCase::DoorPassed);
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// Whatever the step, the cloud and x_B, PPC leaves the position and
+        /// every particle on walkable ground.
+        #[test]
+        fn particles_never_end_in_a_wall(
+            px in 0.3f64..9.7, py in 0.3f64..5.7,
+            len in 0.0f64..2.0, deg in -180.0f64..180.0,
+            spread in 0.0f64..3.0,
+            bx in 0.0f64..10.0, by in 0.0f64..6.0,
+            seed in 0u64..1000,
+        ) {
+            let m = two_rooms();
+            let prev = Vec2::new(px, py);
+            prop_assume!(m.is_walkable(prev));
+            let fc = FusionConfig { particle_count: 200, ..FusionConfig::default() };
+            let mut pf = ParticleFilter::new(&fc, seed);
+            pf.init_at(prev, spread, |_| true);
+            pf.predict(len, deg.to_radians());
+            pf.weight(Vec2::new(bx, by));
+            let x_hat = pf.mean().unwrap();
+            pf.resample();
+            let o = correct(&m, prev, x_hat, Some(Vec2::new(bx, by)), &fc.ppc);
+            prop_assert!(m.is_walkable(o.position), "{:?} -> {:?}", prev, o);
+            apply_to_particles(&m, &mut pf, x_hat, &o);
+            prop_assert_eq!(pf.particles().len(), 200);
+            for p in pf.particles() {
+                prop_assert!(m.feature(*p) != Feature::Wall, "particle {:?} in a wall", p);
+                prop_assert!(m.is_walkable(*p));
+            }
+        }
+    }
+}

@@ -4,6 +4,7 @@ import java.util.concurrent.Executors
 import java.util.concurrent.ScheduledExecutorService
 import java.util.concurrent.ThreadFactory
 import java.util.concurrent.TimeUnit
+import java.util.concurrent.atomic.AtomicLong
 import java.util.concurrent.atomic.AtomicReference
 
 /**
@@ -49,6 +50,15 @@ class TaskScheduler(
     private val fusionExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-fusion"))
     private val error = AtomicReference<Throwable?>(null)
 
+    private val gmlCount = AtomicLong()
+    private val fusionCount = AtomicLong()
+
+    /** Completed runs of the GML task. */
+    val gmlRuns: Long get() = gmlCount.get()
+
+    /** Completed runs of the fusion task. */
+    val fusionRuns: Long get() = fusionCount.get()
+
     /** The first error a task threw, if any. */
     val lastError: Throwable? get() = error.get()
 
@@ -59,15 +69,16 @@ class TaskScheduler(
     val fusionPeriodNs: Long = engine.fusionPeriodNs
 
     init {
-        schedule(gmlExecutor, GmlTask(engine, clock), gmlPeriodNs)
-        schedule(fusionExecutor, FusionTask(engine, clock, onPose), fusionPeriodNs)
+        schedule(gmlExecutor, GmlTask(engine, clock), gmlPeriodNs, gmlCount)
+        schedule(fusionExecutor, FusionTask(engine, clock, onPose), fusionPeriodNs, fusionCount)
     }
 
-    private fun schedule(executor: ScheduledExecutorService, task: Runnable, periodNs: Long) {
+    private fun schedule(executor: ScheduledExecutorService, task: Runnable, periodNs: Long, runs: AtomicLong) {
         if (periodNs <= 0) return
         val guarded = Runnable {
             try {
                 task.run()
+                runs.incrementAndGet()
             } catch (t: Throwable) {
                 error.compareAndSet(null, t)
                 gmlExecutor.shutdown()

@@ -13,7 +13,8 @@
 #
 # Options: --bench  run only the JNI per-call overhead benchmark (prints figures).
 # Env: FPBP_ENGINE (engine of the replay test, default fpbp),
-#      FPBP_REPLAY_LOG (log to replay, default: first of host-tests/logs/*.log*),
+#      FPBP_REPLAY_LOG (log to replay, default: host-tests/logs/demo-walk-1.log.gz,
+#      else the first of host-tests/logs/*.log* by name),
 #      FPBP_REPLAY_SITE (default maps/demo/site.json).
 set -euo pipefail
 here="$(cd "$(dirname "$0")" && pwd)"
@@ -37,7 +38,9 @@ out="$target/fpbp-host-tests"
 mkdir -p "$out"
 engine="${FPBP_ENGINE:-fpbp}"
 site="${FPBP_REPLAY_SITE:-$repo/maps/demo/site.json}"
-log="${FPBP_REPLAY_LOG:-$(ls "$repo"/host-tests/logs/*.log "$repo"/host-tests/logs/*.log.gz 2>/dev/null | sort | head -n 1 || true)}"
+default_log="$repo/host-tests/logs/demo-walk-1.log.gz"
+[ -f "$default_log" ] || default_log="$(ls "$repo"/host-tests/logs/*.log "$repo"/host-tests/logs/*.log.gz 2>/dev/null | sort | head -n 1 || true)"
+log="${FPBP_REPLAY_LOG:-$default_log}"
 init="none"
 props=()
 if [ $bench -eq 0 ]; then

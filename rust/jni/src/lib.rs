@@ -319,3 +319,16 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_engineNames<'l>(
         )?)
     })
 }
+
+/// `selfTestPanic()`: panics inside the native library on purpose, so tests
+/// can check that a panic becomes `io.fpbp.FpbpNativeException` and that the
+/// library keeps working afterwards.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+) {
+    entry(&mut env, "selfTestPanic", |_| -> Result<(), BridgeError> {
+        panic!("self-test panic")
+    })
+}

@@ -80,4 +80,7 @@ object NativeBridge {
 
     /** Engine names [start] accepts, comma-separated. */
     @JvmStatic external fun engineNames(): String
+
+    /** Panics inside the native library on purpose (tests: the panic must surface as [FpbpNativeException]). */
+    @JvmStatic external fun selfTestPanic()
 }

@@ -66,6 +66,13 @@ class NativeErrorsTest {
     }
 
     @Test
+    fun aPanicBecomesFpbpNativeExceptionAndTheLibraryKeepsWorking() {
+        val e = assertThrows<FpbpNativeException> { NativeBridge.selfTestPanic() }
+        assertMessage(e, "selfTestPanic", "self-test panic")
+        TestSupport.startOpen().use { assertTrue(it.statsJson().contains("\"sensor_events\":0")) }
+    }
+
+    @Test
     fun neverIssuedHandlesThrowIllegalState() {
         val out = DoubleArray(NativeBridge.POSE_LEN)
         for (h in listOf(0L, -1L, Long.MAX_VALUE)) {

@@ -69,7 +69,10 @@ fn ipin_beacons(path: &Path) -> Result<BTreeMap<String, KnownBeacon>> {
         if line.trim().is_empty() {
             continue;
         }
-        let f: Vec<&str> = line.split(',').map(|s| s.trim().trim_matches('"')).collect();
+        let f: Vec<&str> = line
+            .split(',')
+            .map(|s| s.trim().trim_matches('"'))
+            .collect();
         let at = || format!("{}:{}", path.display(), i + 1);
         if f.len() < 4 {
             bail!("{}: expected bleID,Lat,Lon,floor", at());
@@ -80,7 +83,9 @@ fn ipin_beacons(path: &Path) -> Result<BTreeMap<String, KnownBeacon>> {
             .with_context(|| format!("{}: bad bleID `{}`", at(), f[0]))?;
         let lat: f64 = f[1].parse().with_context(|| format!("{}: bad Lat", at()))?;
         let lon: f64 = f[2].parse().with_context(|| format!("{}: bad Lon", at()))?;
-        let floor: i32 = f[3].parse().with_context(|| format!("{}: bad floor", at()))?;
+        let floor: i32 = f[3]
+            .parse()
+            .with_context(|| format!("{}: bad floor", at()))?;
         let minor = match n {
             2 => 3,
             3 => 2,
@@ -105,7 +110,10 @@ struct Row {
     r: Realism,
 }
 
-fn read_events(path: &Path, opts: &ReadOptions) -> Result<(Vec<fpbp_core::events::LogEvent>, LogFormat)> {
+fn read_events(
+    path: &Path,
+    opts: &ReadOptions,
+) -> Result<(Vec<fpbp_core::events::LogEvent>, LogFormat)> {
     let mut reader = open_log(path, opts).with_context(|| format!("opening {}", path.display()))?;
     let format = reader.format();
     let mut ev = Vec::new();
@@ -221,7 +229,9 @@ pub fn run(args: Args) -> Result<()> {
         ("RSSI slope dB/decade", |r| {
             r.rssi.as_ref().map(|s| s.slope_db_per_decade)
         }),
-        ("  fit RSSI at 1 m dBm", |r| r.rssi.as_ref().map(|s| s.intercept_dbm)),
+        ("  fit RSSI at 1 m dBm", |r| {
+            r.rssi.as_ref().map(|s| s.intercept_dbm)
+        }),
         ("  fit residual sigma dB", |r| {
             r.rssi.as_ref().map(|s| s.residual_sigma_db)
         }),
@@ -284,9 +294,7 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(j) = &args.json {
         let v: Vec<serde_json::Value> = rows
             .iter()
-            .map(|r| {
-                serde_json::json!({"group": r.group, "file": r.file, "figures": r.r})
-            })
+            .map(|r| serde_json::json!({"group": r.group, "file": r.file, "figures": r.r}))
             .collect();
         std::fs::write(j, serde_json::to_string_pretty(&v)?)
             .with_context(|| format!("writing {}", j.display()))?;

@@ -63,7 +63,10 @@ pub fn header_of(log: &SimLog, site_file: &str) -> Result<NativeHeader> {
     let h = &log.header;
     Ok(NativeHeader::new()
         .with("device", "fpbp-sim")
-        .with("generator", format!("{} {}", h.generator, h.generator_version))
+        .with(
+            "generator",
+            format!("{} {}", h.generator, h.generator_version),
+        )
         .with("site", h.site_name.clone())
         .with("site_file", site_file)
         .with("floor", h.floor.to_string())

@@ -12,43 +12,9 @@ use fpbp_core::site::Site;
 use fpbp_logs::{ReadOptions, ReadReport};
 use serde::Serialize;
 
-/// Loads a site file (site.json + plans).
-///
-/// Stand-in until the map helper's `site_io::load_site` lands on main: it
-/// reads the spec and builds open floors only (a walkable rectangle with a
-/// wall border at 2 px/m). It will become a call to `crate::site_io::load_site`.
+/// Loads a site file (site.json + plans) with the map loader.
 pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
-    use fpbp_core::map::{Feature, FloorMap};
-    let name = path.display().to_string();
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read site file {name}"))?;
-    let spec: fpbp_core::site::SiteSpec =
-        serde_json::from_str(&text).with_context(|| format!("site file {name}"))?;
-    let mut floors = Vec::new();
-    for (i, f) in spec.floors.iter().enumerate() {
-        let Some([w_m, h_m]) = f.open_area_m else {
-            bail!(
-                "{name}: floors[{i}]: plan floors need the map loader (not merged yet); only open_area_m floors load"
-            );
-        };
-        if !(w_m > 0.0 && h_m > 0.0 && w_m * h_m < 1e7) {
-            bail!("{name}: floors[{i}].open_area_m: {w_m} x {h_m} m is out of range");
-        }
-        let r = 2.0;
-        let (w, h) = ((w_m * r).ceil() as usize, (h_m * r).ceil() as usize);
-        let features = (0..w * h)
-            .map(|k| {
-                let (x, y) = (k % w, k / w);
-                if x == 0 || y == 0 || x + 1 == w || y + 1 == h {
-                    Feature::Wall
-                } else {
-                    Feature::Walkable
-                }
-            })
-            .collect();
-        floors.push(FloorMap::from_features(w, h, r, features));
-    }
-    Ok(Arc::new(Site { spec, floors }))
+    crate::site_io::load_site(path)
 }
 
 /// Reads an engine config (JSON; missing fields take defaults) and applies `--seed`.

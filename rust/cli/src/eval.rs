@@ -315,4 +315,56 @@ mod tests {
         assert_eq!(ms[0].per_log[0].log, "walk1.log");
         std::fs::remove_dir_all(&d).ok();
     }
+
+    #[test]
+    fn eval_runs_the_core_pdr_engine_on_real_ilc_traces() {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../../../shared/datasets/ilc/site2/F4/path_data_files");
+        if !data.is_dir() {
+            println!("skipped: ../shared/datasets not found ({})", data.display());
+            return;
+        }
+        let d = tmp_dir("eval-ilc");
+        let site_path = d.join("site.json");
+        std::fs::write(&site_path, r#"{"format":"fpbp-site","version":1,"name":"F4","floors":[{"id":4,"open_area_m":[236.71,219.75]}]}"#).unwrap();
+        let mut logs: Vec<PathBuf> = std::fs::read_dir(&data)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        logs.sort();
+        logs.truncate(4);
+        let args = Args {
+            site: site_path,
+            logs,
+            engine: vec!["pdr".into()],
+            out: d.join("out"),
+            config: None,
+            init: InitMode::None,
+            split: Split::Odd,
+            seed: None,
+            floor: None,
+            strict: true,
+        };
+        let ms = run_with(&args, &common::core_builder, false).unwrap();
+        let m = &ms[0];
+        assert_eq!(m.logs, 2);
+        assert_eq!(m.errors.no_fix, 0, "{m:?}");
+        // Every waypoint but the start is scored.
+        for (row, path) in m.per_log.iter().zip(select_logs(&args.logs, Split::Odd)) {
+            let (_, rep) = fpbp_logs::read_all(&path, &fpbp_logs::ReadOptions::default()).unwrap();
+            assert_eq!(
+                row.errors.points as u64,
+                rep.events.truth - 1,
+                "{}",
+                row.log
+            );
+        }
+        assert!(
+            m.per_log
+                .iter()
+                .all(|l| l.steps > 0 && l.init_from_truth && l.read.malformed_skipped == 0)
+        );
+        assert!(m.errors.mpe_m.unwrap().is_finite() && m.errors.floor_accuracy == Some(1.0));
+        std::fs::remove_dir_all(&d).ok();
+    }
 }

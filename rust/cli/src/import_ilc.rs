@@ -572,7 +572,19 @@ mod tests {
                 w.segments_crossing_wall * 50 <= w.segments,
                 "{floor}: {w:?} (more than 2 %)"
             );
-            assert!(out.join(floor).join("site.json").is_file());
+            // The site loads and validates with the project's loader (Site::build).
+            let site = crate::site_io::load_site(&out.join(floor).join("site.json")).unwrap();
+            let map = site.floor(id).unwrap();
+            assert_eq!(
+                (map.width_px(), map.height_px()),
+                (rep.width_px, rep.height_px)
+            );
+            assert_eq!(map.build_report().unclassified_count, 0);
+            assert!(
+                map.rooms().len() > 20,
+                "shops are rooms: {}",
+                map.rooms().len()
+            );
         }
         std::fs::remove_dir_all(&out).ok();
     }

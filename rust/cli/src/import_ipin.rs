@@ -915,6 +915,13 @@ mod tests {
             assert!(b.x_m > bb[0] - 10.0 && b.x_m < bb[2] + 10.0, "{b:?}");
             assert!(b.y_m > bb[1] - 10.0 && b.y_m < bb[3] + 10.0, "{b:?}");
         }
+        // The site loads and validates with the project's loader (Site::build).
+        let site = crate::site_io::load_site(&out.join("site/site.json")).unwrap();
+        assert_eq!(site.floors.len(), 3);
+        assert!(
+            site.floors.iter().all(|m| m.rooms().len() == 1),
+            "open floors and the stair block"
+        );
         // The log reader (fpbp_logs) with the site's georeference: every beacon
         // heard is a site beacon, and the truth lands on walkable pixels of its floor.
         let spec: SiteSpec =

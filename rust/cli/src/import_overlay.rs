@@ -5,17 +5,18 @@
 //! points through the site's georeference), so a person can see that the
 //! truth lies in walkable space; prints where the truth points fall.
 //!
-//! It reads site.json and the plan PNGs itself and classifies plan pixels by
-//! the nearest legend colour (the full plan loader, `Site::build`, lives with
-//! the map module); truth comes from `fpbp_logs`.
+//! The site is loaded with `site_io::load_site` (`Site::build`), truth with
+//! `fpbp_logs`. `fpbp map check SITE --truth LOG...` (map module) draws the
+//! truth points too; this command adds the walks, wall-crossing counts,
+//! beacons, folder arguments and a JSON summary.
 
-use crate::import_raster::wall_crossings;
+use crate::import_raster::{colour_of, wall_crossings};
 use crate::import_truth::list_files;
 use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
 use fpbp_core::events::LogEvent;
-use fpbp_core::map::{Feature, FloorMap};
-use fpbp_core::site::{Legend, SiteSpec};
+use fpbp_core::map::Feature;
+use fpbp_core::site::SiteSpec;
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -93,25 +94,6 @@ fn read_truth(path: &Path, spec: &SiteSpec) -> Result<LogTruth> {
     Ok(out)
 }
 
-/// Nearest legend class of an RGB pixel.
-fn classify(legend: &Legend, px: [u8; 3]) -> Feature {
-    let d = |c: [u8; 3]| {
-        (0..3)
-            .map(|k| (px[k] as f64 - c[k] as f64).powi(2))
-            .sum::<f64>()
-    };
-    let cands = [
-        (d(legend.walkable), Feature::Walkable),
-        (d(legend.door), Feature::Door),
-        (d(legend.wall), Feature::Wall),
-    ];
-    cands
-        .iter()
-        .min_by(|a, b| a.0.total_cmp(&b.0))
-        .map(|c| c.1)
-        .unwrap_or(Feature::Wall)
-}
-
 fn put(img: &mut image::RgbImage, x: i64, y: i64, c: [u8; 3]) {
     if x >= 0 && y >= 0 && (x as u32) < img.width() && (y as u32) < img.height() {
         img.put_pixel(x as u32, y as u32, image::Rgb(c));
@@ -128,11 +110,8 @@ fn line(img: &mut image::RgbImage, a: Vec2, b: Vec2, c: [u8; 3]) {
 
 /// Draws and counts; writes overlay_<floor>.png and overlay.json into `out`.
 pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
-    let site_path = args.site_dir.join("site.json");
-    let text = std::fs::read_to_string(&site_path)
-        .with_context(|| format!("reading {}", site_path.display()))?;
-    let spec: SiteSpec = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a site file", site_path.display()))?;
+    let site = crate::site_io::load_site(&args.site_dir.join("site.json"))?;
+    let spec = &site.spec;
     let mut files = Vec::new();
     for t in &args.truth {
         if t.is_dir() {
@@ -143,31 +122,19 @@ pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
     }
     let mut truth: BTreeMap<i32, Vec<Vec<Vec2>>> = BTreeMap::new();
     for f in &files {
-        for (floor, pts) in read_truth(f, &spec)? {
+        for (floor, pts) in read_truth(f, spec)? {
             truth.entry(floor).or_default().push(pts);
         }
     }
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let mut rows = Vec::new();
-    for fl in &spec.floors {
-        let (Some(plan), Some(r)) = (&fl.plan, fl.pixels_per_meter) else {
-            bail!(
-                "floor {}: overlay needs a plan image and pixels_per_meter",
-                fl.id
-            );
-        };
-        let plan_path = args.site_dir.join(plan);
-        let mut img = image::open(&plan_path)
-            .with_context(|| format!("reading {}", plan_path.display()))?
-            .to_rgb8();
-        let features: Vec<Feature> = img.pixels().map(|p| classify(&spec.legend, p.0)).collect();
-        let map = FloorMap::from_features(img.width() as usize, img.height() as usize, r, features);
-        // Lighten the plan so the truth stands out.
-        for p in img.pixels_mut() {
-            for c in p.0.iter_mut() {
-                *c = 255 - (255 - *c) / 2;
-            }
+    for (fl, map) in spec.floors.iter().zip(&site.floors) {
+        // The built map (Site::build), lightened so the truth stands out.
+        let mut img = image::RgbImage::new(map.width_px() as u32, map.height_px() as u32);
+        for (i, j, p) in img.enumerate_pixels_mut() {
+            let c = colour_of(&spec.legend, map.feature_px(i as isize, j as isize));
+            *p = image::Rgb(c.map(|v| 255 - (255 - v) / 2));
         }
         let walks = truth.get(&fl.id).cloned().unwrap_or_default();
         let mut row = FloorOverlay {
@@ -187,7 +154,7 @@ pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
                     continue;
                 }
                 row.segments += 1;
-                let crossed = wall_crossings(&map, s[0], s[1]) > 0;
+                let crossed = wall_crossings(map, s[0], s[1]) > 0;
                 row.segments_crossing_wall += usize::from(crossed);
                 let c = if crossed { [255, 140, 0] } else { [0, 90, 255] };
                 line(&mut img, map.mcs_to_ics(s[0]), map.mcs_to_ics(s[1]), c);

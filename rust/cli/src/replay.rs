@@ -151,12 +151,19 @@ pub fn run_with(args: &Args, build: &EngineBuilder) -> anyhow::Result<EngineMetr
                 .map(|p| (p.x_m, p.y_m))
                 .collect(),
         }],
+        // The start point (when the engine got one from truth) and the scored points.
         truth: run
-            .out
-            .scored
-            .iter()
-            .filter(|s| s.truth.floor.is_none_or(|f| f == floor))
-            .map(|s| (s.truth.x_m, s.truth.y_m))
+            .init
+            .filter(|i| i.floor == floor)
+            .map(|i| (i.x_m, i.y_m))
+            .into_iter()
+            .chain(
+                run.out
+                    .scored
+                    .iter()
+                    .filter(|s| s.truth.floor.is_none_or(|f| f == floor))
+                    .map(|s| (s.truth.x_m, s.truth.y_m)),
+            )
             .collect(),
     };
     plot::track_png(&args.out.join("track.png"), &plot)?;

@@ -165,7 +165,7 @@ fn rssi_statistics_match_the_model() {
     // Shadowing is correlated over ~2 m of walking, so pool four 300 s walks
     // (standard error of the mean about 0.2 dB).
     let (los, nlos, sigma) = residuals(0.0, 1..5);
-    assert!(los.len() > 5000, "{}", los.len());
+    assert!(los.len() > 2500, "{}", los.len());
     let (m, s) = mean_std(&los);
     // Integer rounding adds 1/12 dB^2 of variance.
     let expect = (sigma * sigma + 1.0 / 12.0).sqrt();
@@ -175,7 +175,7 @@ fn rssi_statistics_match_the_model() {
         "LOS residual std {s}, model {expect}"
     );
     // Links through the inner wall carry its attenuation in the model: residual ~0 too.
-    assert!(nlos.len() > 2000, "{}", nlos.len());
+    assert!(nlos.len() > 1000, "{}", nlos.len());
     let (mn, _) = mean_std(&nlos);
     assert!(mn.abs() < 1.0, "wall-link mean residual {mn}");
 }

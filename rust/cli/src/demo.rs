@@ -28,7 +28,7 @@ pub struct Args {
     /// Site file.
     #[arg(long, default_value = "maps/demo/site.json")]
     pub site: PathBuf,
-    /// Folder of the shipped logs (every regular file but README* and dot files).
+    /// Folder of the shipped logs (every *.log, *.txt, *.log.gz, *.txt.gz in it).
     #[arg(long, default_value = "host-tests/logs")]
     pub logs: PathBuf,
     /// Output folder for plots and metrics.json (created).
@@ -73,9 +73,10 @@ fn log_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.is_file()
-                && p.file_name()
-                    .and_then(|n| n.to_str())
-                    .is_some_and(|n| !n.starts_with("README") && !n.starts_with('.'))
+                && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                    let n = n.strip_suffix(".gz").unwrap_or(n);
+                    !n.starts_with('.') && (n.ends_with(".log") || n.ends_with(".txt"))
+                })
         })
         .collect();
     v.sort();

@@ -4,19 +4,19 @@
 //!
 //! `--check-logs` replays the BLE-only engines on held-out logs with the
 //! calibrated site and prints mean / p50 / p80 error at the truth points and
-//! the share of truth points that had a position (open floors only until the
-//! map loader is wired in here).
+//! the share of truth points that had a position.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
+use fpbp_core::Vec2;
 use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::map::{Feature, FloorMap};
-use fpbp_core::site::{Site, SiteSpec};
+use fpbp_core::site::SiteSpec;
 use fpbp_logs::{ReadOptions, read_all};
 
 /// Which logs of the list (sorted by file name) to use.
@@ -107,6 +107,32 @@ fn load_spec(path: &Path) -> Result<SiteSpec> {
         .with_context(|| format!("{}: not a valid site.json", path.display()))
 }
 
+/// Plan paths are relative to the site file: when the output goes to another
+/// directory, point them at the input's plans by absolute path.
+fn rebase_plans(spec: &mut SiteSpec, from: &Path, to: &Path) {
+    let dir = |p: &Path| p.parent().map(Path::to_path_buf).unwrap_or_default();
+    let (a, b) = (dir(from), dir(to));
+    let canon = |p: &Path| {
+        std::fs::canonicalize(if p.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            p
+        })
+        .ok()
+    };
+    if canon(&a) == canon(&b) {
+        return;
+    }
+    for f in &mut spec.floors {
+        if let Some(plan) = &f.plan
+            && Path::new(plan).is_relative()
+            && let Some(abs) = canon(&a.join(plan))
+        {
+            f.plan = Some(abs.display().to_string());
+        }
+    }
+}
+
 fn load_config(path: Option<&PathBuf>) -> Result<EngineConfig> {
     match path {
         None => Ok(EngineConfig::default()),
@@ -151,31 +177,6 @@ fn print_table(reports: &[TransmitterReport]) {
     }
 }
 
-/// A site with maps for the check: open floors become walkable rectangles at
-/// 1 px/m; plan floors are not supported here.
-fn open_site(spec: &SiteSpec) -> Result<Site> {
-    let mut floors = Vec::new();
-    for f in &spec.floors {
-        let Some([w, h]) = f.open_area_m else {
-            bail!(
-                "--check-logs supports open floors only (floor {} has a plan); use `fpbp eval`",
-                f.id
-            );
-        };
-        let (wp, hp) = (w.ceil().max(1.0) as usize, h.ceil().max(1.0) as usize);
-        floors.push(FloorMap::from_features(
-            wp,
-            hp,
-            1.0,
-            vec![Feature::Walkable; wp * hp],
-        ));
-    }
-    Ok(Site {
-        spec: spec.clone(),
-        floors,
-    })
-}
-
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
@@ -187,7 +188,7 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
     let logs = select(&args.check_logs, args.check_split);
-    let site = Arc::new(open_site(spec)?);
+    let site: Arc<fpbp_core::site::Site> = crate::site_io::load_site(&args.out)?;
     let opts = read_options(spec, args.floor);
     let mut all_events = Vec::new();
     for l in &logs {
@@ -267,7 +268,51 @@ pub fn run(args: Args) -> Result<()> {
         }
         paths.push(p);
     }
-    let (reports, summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
+    let (mut reports, mut summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
+    // a transmitter fitted outside its floor's map cannot go into the site
+    let input = crate::site_io::load_site(&args.site)?;
+    for r in reports.iter_mut().filter(|r| r.accepted()) {
+        let (Some(x), Some(y)) = (r.x_m, r.y_m) else {
+            continue;
+        };
+        let inside = input
+            .floor(r.floor)
+            .is_some_and(|m| (0.0..=m.width_m()).contains(&x) && (0.0..=m.height_m()).contains(&y));
+        if !inside {
+            r.rejected = Some(format!(
+                "fitted at ({x:.1}, {y:.1}) m, outside floor {}'s map",
+                r.floor
+            ));
+            summary.accepted -= 1;
+            continue;
+        }
+        // Site files refuse beacons on Wall pixels. A fitted position inside a
+        // wall (ceiling beacons above shop fronts, fitting error) moves to the
+        // nearest non-Wall point within MAX_WALL_SHIFT_M; farther ones are dropped.
+        let Some(map) = input.floor(r.floor) else {
+            continue;
+        };
+        match nearest_non_wall(map, Vec2::new(x, y), MAX_WALL_SHIFT_M) {
+            Some(p) if p != Vec2::new(x, y) => {
+                eprintln!(
+                    "{}: fitted at ({x:.1}, {y:.1}) m inside a wall, moved {:.2} m to ({:.1}, {:.1})",
+                    r.id,
+                    (p - Vec2::new(x, y)).norm(),
+                    p.x,
+                    p.y
+                );
+                r.x_m = Some(p.x);
+                r.y_m = Some(p.y);
+            }
+            Some(_) => {}
+            None => {
+                r.rejected = Some(format!(
+                    "fitted at ({x:.1}, {y:.1}) m inside a wall, no open floor within {MAX_WALL_SHIFT_M} m"
+                ));
+                summary.accepted -= 1;
+            }
+        }
+    }
     print_table(&reports);
     let too_little = reports.iter().filter(|r| r.x_m.is_none()).count();
     println!(
@@ -281,8 +326,9 @@ pub fn run(args: Args) -> Result<()> {
         summary.transmitters - too_little,
         summary.accepted
     );
-    let out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
-    let text = serde_json::to_string_pretty(&out)?;
+    let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
+    rebase_plans(&mut out, &args.site, &args.out);
+    let text = out.to_json_pretty();
     std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
     println!(
         "wrote {} ({} beacons)",
@@ -297,4 +343,33 @@ pub fn run(args: Args) -> Result<()> {
         check(&args, &out, &cfg)?;
     }
     Ok(())
+}
+
+/// Largest move of a fitted beacon out of a wall, metres.
+const MAX_WALL_SHIFT_M: f64 = 3.0;
+
+/// The centre of the nearest non-Wall pixel to `p` within `max_m` (`p` itself
+/// when it is not on a Wall pixel).
+fn nearest_non_wall(map: &FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
+    if map.feature(p) != Feature::Wall {
+        return Some(p);
+    }
+    let (ci, cj) = map.pixel_of(p)?;
+    let r = map.pixels_per_meter();
+    let max_px = (max_m * r).ceil() as isize;
+    let mut best: Option<(f64, Vec2)> = None;
+    for dj in -max_px..=max_px {
+        for di in -max_px..=max_px {
+            let (i, j) = (ci as isize + di, cj as isize + dj);
+            if map.feature_px(i, j) == Feature::Wall {
+                continue;
+            }
+            let q = map.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5));
+            let d = (q - p).norm();
+            if d <= max_m && best.is_none_or(|(b, _)| d < b) {
+                best = Some((d, q));
+            }
+        }
+    }
+    best.map(|(_, q)| q)
 }

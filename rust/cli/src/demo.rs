@@ -1,7 +1,8 @@
 //! `fpbp demo`: the main job. Runs fpbp, bp, gml and pdr on the demo site
 //! and its shipped simulated logs, prints one table (mean / p50 / p80 error,
 //! mean compute time per task, real-time factor, poses inside walls) and
-//! writes OUT/track_<log>.png (tracks over the plan), OUT/cdf.png and
+//! writes OUT/track_<log>.png (tracks over the plan), OUT/track_<log>_<engine>.csv,
+//! OUT/cdf.png and
 //! OUT/metrics.json (the `fpbp eval` engine objects plus `poses_in_wall`).
 //!
 //! Start-up: every engine finds its own start except `pdr`, which gets the
@@ -27,7 +28,7 @@ pub struct Args {
     /// Site file.
     #[arg(long, default_value = "maps/demo/site.json")]
     pub site: PathBuf,
-    /// Folder of the shipped logs (every regular file but README* and dot files).
+    /// Folder of the shipped logs (every *.log, *.txt, *.log.gz, *.txt.gz in it).
     #[arg(long, default_value = "host-tests/logs")]
     pub logs: PathBuf,
     /// Output folder for plots and metrics.json (created).
@@ -72,9 +73,10 @@ fn log_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.is_file()
-                && p.file_name()
-                    .and_then(|n| n.to_str())
-                    .is_some_and(|n| !n.starts_with("README") && !n.starts_with('.'))
+                && p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                    let n = n.strip_suffix(".gz").unwrap_or(n);
+                    !n.starts_with('.') && (n.ends_with(".log") || n.ends_with(".txt"))
+                })
         })
         .collect();
     v.sort();
@@ -99,6 +101,20 @@ fn in_wall_fraction(site: &Site, outs: &[&ReplayOutput]) -> f64 {
         }
     }
     if n == 0 { 0.0 } else { bad as f64 / n as f64 }
+}
+
+/// Writes an engine's published poses as CSV (t_ns, x_m, y_m, floor, heading_rad, accuracy_m).
+fn write_track_csv(path: &Path, out: &ReplayOutput) -> anyhow::Result<()> {
+    use std::fmt::Write as _;
+    let mut s = String::from("t_ns,x_m,y_m,floor,heading_rad,accuracy_m\n");
+    for p in &out.track {
+        let _ = writeln!(
+            s,
+            "{},{:.3},{:.3},{},{:.4},{:.2}",
+            p.t_ns, p.x_m, p.y_m, p.floor, p.heading_rad, p.accuracy_m
+        );
+    }
+    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
 }
 
 fn stem(name: &str) -> &str {
@@ -141,6 +157,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         for (k, name) in args.engines.iter().enumerate() {
             let run = common::run_log(&common::core_builder, name, &site, &cfg, args.init, &log)
                 .with_context(|| format!("on {}", path.display()))?;
+            write_track_csv(
+                &args
+                    .out
+                    .join(format!("track_{}_{name}.csv", stem(&log.name))),
+                &run.out,
+            )?;
             tracks.push(Series {
                 label: name.clone(),
                 points: run

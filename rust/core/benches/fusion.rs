@@ -35,11 +35,35 @@ fn office() -> FloorMap {
     FloorMap::from_features(w, h, r, f)
 }
 
+/// The demo site's plan (maps/demo/plan.png, built by the map module), or
+/// the synthetic office when the file is missing.
+fn demo_or_office() -> (FloorMap, &'static str) {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+    let built = std::fs::read(dir.join("site.json")).ok().and_then(|bytes| {
+        let spec = fpbp_core::site::SiteSpec::from_json(&bytes, "site.json").ok()?;
+        let site = fpbp_core::site::Site::build(spec, "site.json", &mut |p: &str| {
+            std::fs::read(dir.join(p))
+        })
+        .ok()?;
+        site.floors.into_iter().next()
+    });
+    match built {
+        Some(m) => (m, "demo"),
+        None => (office(), "office"),
+    }
+}
+
 fn fusion_step(c: &mut Criterion) {
-    let map = office();
+    let (map, plan) = demo_or_office();
+    eprintln!("fusion bench plan: {plan}");
     let cfg = FusionConfig::default();
     let mut pf = ParticleFilter::new(&cfg, 1);
-    let start = Vec2::new(2.5, 10.0);
+    // The demo's and the office's corridors both run east at y ~ 20 / 10 m.
+    let start = if plan == "demo" {
+        Vec2::new(3.0, 20.5)
+    } else {
+        Vec2::new(2.5, 10.0)
+    };
     pf.init_at(start, 1.0, |p| map.is_walkable(p));
     let mut prev = start;
     let mut k = 0u64;
@@ -49,6 +73,7 @@ fn fusion_step(c: &mut Criterion) {
             k += 1;
             let yaw = if k % 8 < 4 { 0.6 } else { -0.6 };
             let x_b = prev + Vec2::new(1.0, 0.0);
+            // (x_B leads the walker by 1 m along the corridor.)
             pf.predict(0.7, yaw);
             pf.weight(x_b);
             let x_hat = pf.mean().unwrap_or(prev);

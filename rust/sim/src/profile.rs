@@ -36,8 +36,8 @@ impl Default for SimProfile {
 pub const PROFILE_NAMES: &[&str] = &["default", "swinging", "ilc-like", "ipin-like"];
 
 impl SimProfile {
-    /// A named profile: `default` (phone held in front, between the real
-    /// ILC and IPIN logs), `swinging` (phone in a swinging hand), `ilc-like`
+    /// A named profile: `default` (phone held in front; vertical p-p like
+    /// ILC's, BLE repeat like IPIN's), `swinging` (phone in a swinging hand), `ilc-like`
     /// (closer to ILC's phone and walkers), `ipin-like` (closer to IPIN's).
     /// Figures behind them: docs/sim.md.
     pub fn named(name: &str) -> Result<SimProfile> {
@@ -48,9 +48,8 @@ impl SimProfile {
                 p.walk.carry = Carry::Swinging;
             }
             "ilc-like" => {
-                // ILC's OPPO: larger vertical accelerations, faster steps,
-                // same-id repeat p50 0.29 s.
-                p.imu.weinberg_beta *= 0.9;
+                // ILC: faster steps, same-id repeat p50 0.29 s (the default's
+                // vertical p-p already matches ILC's).
                 p.walk.step_freq_min_hz = 1.7;
                 p.walk.step_freq_max_hz = 2.1;
                 p.ble.reception_probability = 0.3;
@@ -58,7 +57,7 @@ impl SimProfile {
             "ipin-like" => {
                 // IPIN's Samsungs: slower steps, smaller vertical
                 // accelerations, sparser reports (repeat p50 0.39 s).
-                p.imu.weinberg_beta *= 1.15;
+                p.imu.weinberg_beta *= 1.25;
                 p.walk.step_freq_min_hz = 1.4;
                 p.walk.step_freq_max_hz = 1.9;
                 p.walk.step_len_at_min_freq_m = 0.5;

@@ -20,7 +20,9 @@
 //!    `max_correlation`, robust residual spread (1.4826 MAD) above
 //!    `max_residual_dbm`, spread of per-path mean residuals above
 //!    `max_path_bias_dbm`, per-path excess residual above `max_path_excess_dbm`
-//!    (moving or carried devices: each path would put them somewhere else).
+//!    (moving or carried devices: each path would put them somewhere else;
+//!    each path gets its own RSSI offset in this test, so phones with
+//!    different gains do not look like moving transmitters).
 //!
 //! Ranges are horizontal (calibrated beacons are written at the phone's
 //! height, so dz = 0), floored at `min_distance_m`.
@@ -282,10 +284,15 @@ fn fit_transmitter(bins: &[Bin], min_d: f64, cfg: &CalibrationConfig) -> Fit {
     best
 }
 
+/// Huber cost of one path's bins at position `q` with the exponent fixed and
+/// the path's own offset (its mean residual: phone and body effects differ
+/// between walks) removed.
 fn huber_cost(bins: &[&Bin], q: Vec2, r0: f64, n: f64, min_d: f64, k: f64) -> f64 {
+    let resid = |b: &Bin| b.rssi - (r0 - 10.0 * n * (b.pos - q).norm().max(min_d).log10());
+    let offset = bins.iter().map(|b| resid(b)).sum::<f64>() / bins.len().max(1) as f64;
     bins.iter()
         .map(|b| {
-            let r = (b.rssi - (r0 - 10.0 * n * (b.pos - q).norm().max(min_d).log10())).abs();
+            let r = (resid(b) - offset).abs();
             if r <= k {
                 0.5 * r * r
             } else {
@@ -296,7 +303,7 @@ fn huber_cost(bins: &[&Bin], q: Vec2, r0: f64, n: f64, min_d: f64, k: f64) -> f6
 }
 
 /// RMS over paths (>= 5 bins) of sqrt(2 (cost at the common position - cost at
-/// the path's own best position) / bins), model fixed; own best position by a
+/// the path's own best position) / bins), exponent fixed, per-path offset free; own best position by a
 /// grid search over the common search box at the coarse step, then a pattern search.
 fn path_excess(
     bins: &[Bin],

@@ -19,9 +19,13 @@ pub struct BleConfig {
     pub phone_height_m: f64,
     /// Smallest range used in the path-loss model, metres (avoids log 0). Default 0.5.
     pub min_distance_m: f64,
-    /// n of eq. 22: the BLE position is the mean of the current estimate and the
-    /// previous n - 1 outputs. 1 disables the mean filter. Default 3.
+    /// n of eq. 22: the BLE position is the mean of the current estimate and
+    /// n - 1 earlier terms (see `mean_mode`). 1 disables the mean filter. Default 3.
     pub mean_window_n: usize,
+    /// Which earlier terms eq. 22 averages: `estimates` (the previous raw
+    /// estimates, a moving average) or `outputs` (the previous outputs, the
+    /// literal recursive reading). Default `estimates`.
+    pub mean_mode: super::mean_filter::MeanMode,
     /// The mean filter forgets its history when the last output is older than
     /// this, seconds. Default 5.
     pub mean_reset_s: f64,
@@ -50,6 +54,7 @@ impl Default for BleConfig {
             phone_height_m: 1.2,
             min_distance_m: 0.5,
             mean_window_n: 3,
+            mean_mode: super::mean_filter::MeanMode::Estimates,
             mean_reset_s: 5.0,
             gml: GmlConfig::default(),
             trilat: TrilatConfig::default(),
@@ -72,7 +77,7 @@ pub struct KalmanConfig {
     pub process_noise_dbm2_per_s: f64,
     /// Measurement noise R, dBm^2 (variance of one advert's RSSI). Default 16.
     pub measurement_noise_dbm2: f64,
-    /// A beacon not heard for this long is dropped from the filtered set, seconds. Default 3.
+    /// A beacon not heard for this long is dropped from the filtered set, seconds. Default 6.
     pub staleness_s: f64,
     /// Observations a beacon needs before it enters the filtered set. Default 1.
     pub min_samples: u32,
@@ -83,7 +88,7 @@ impl Default for KalmanConfig {
         KalmanConfig {
             process_noise_dbm2_per_s: 4.0,
             measurement_noise_dbm2: 16.0,
-            staleness_s: 3.0,
+            staleness_s: 6.0,
             min_samples: 1,
         }
     }
@@ -93,10 +98,10 @@ impl Default for KalmanConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct GmlConfig {
-    /// N of eq. 9: the N strongest filtered beacons are used (N >= 3). Default 4.
+    /// N of eq. 9: the N strongest filtered beacons are used (N >= 3). Default 6.
     pub top_n: usize,
     /// d0 of eqs. 20-21: Manhattan radius of the candidate set around the previous
-    /// position, metres. Default 10.
+    /// position, metres. Default 30.
     pub d0_m: f64,
     /// sigma-hat of eq. 12 (RSSI noise after filtering), dBm. With equal sigma
     /// and equal path-loss exponents every beacon has the same weight, as in the
@@ -115,8 +120,8 @@ pub struct GmlConfig {
 impl Default for GmlConfig {
     fn default() -> Self {
         GmlConfig {
-            top_n: 4,
-            d0_m: 10.0,
+            top_n: 6,
+            d0_m: 30.0,
             rssi_sigma_dbm: 4.0,
             use_kalman_variance: false,
             dense_min_inside_fraction: 0.5,
@@ -164,7 +169,7 @@ impl Default for FrbwConfig {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct MlConfig {
-    /// Beacons used, strongest first (same N as GML by default). Default 4.
+    /// Beacons used, strongest first (same N as GML by default). Default 6.
     pub top_n: usize,
     /// Iteration cap of the Levenberg-Marquardt loop. Default 50.
     pub max_iterations: u32,
@@ -173,7 +178,7 @@ pub struct MlConfig {
 impl Default for MlConfig {
     fn default() -> Self {
         MlConfig {
-            top_n: 4,
+            top_n: 6,
             max_iterations: 50,
         }
     }
@@ -212,10 +217,10 @@ pub struct CalibrationConfig {
     pub min_paths: usize,
     /// ... and in at least this many bins. Default 20.
     pub min_bins: usize,
-    /// Largest robust residual spread (1.4826 MAD) of the path-loss fit, dBm. Default 6.
+    /// Largest robust residual spread (1.4826 MAD) of the path-loss fit, dBm. Default 7.
     pub max_residual_dbm: f64,
     /// Pearson correlation of RSSI with log10(distance) must be at most this
-    /// (RSSI must fall with distance). Default -0.5.
+    /// (RSSI must fall with distance). Default -0.4.
     pub max_correlation: f64,
     /// Fitted path-loss exponent must lie in [min_exponent, max_exponent]. Default 1.0.
     pub min_exponent: f64,
@@ -226,8 +231,8 @@ pub struct CalibrationConfig {
     pub max_path_bias_dbm: f64,
     /// Largest RMS over paths of the per-path excess residual: for each path,
     /// sqrt((Huber cost at the common position - Huber cost at that path's own
-    /// best position) * 2 / bins), with the model fixed. A fixed transmitter
-    /// explains every path from one place; a moving one does not. dBm. Default 2.
+    /// best position) * 2 / bins), exponent fixed, each path with its own offset. A fixed transmitter
+    /// explains every path from one place; a moving one does not. dBm. Default 2.5.
     pub max_path_excess_dbm: f64,
     /// The transmitter may lie this far outside the box of the positions where it
     /// was heard, metres. Default 10.
@@ -245,12 +250,12 @@ impl Default for CalibrationConfig {
             max_truth_gap_s: 20.0,
             min_paths: 3,
             min_bins: 20,
-            max_residual_dbm: 6.0,
-            max_correlation: -0.5,
+            max_residual_dbm: 7.0,
+            max_correlation: -0.4,
             min_exponent: 1.0,
             max_exponent: 5.0,
             max_path_bias_dbm: 5.0,
-            max_path_excess_dbm: 2.0,
+            max_path_excess_dbm: 2.5,
             search_margin_m: 10.0,
             coarse_step_m: 2.0,
             huber_k_dbm: 4.0,

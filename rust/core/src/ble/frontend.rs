@@ -209,7 +209,9 @@ mod tests {
 
     #[test]
     fn stale_beacons_drop_out_and_restart() {
-        let mut fe = BleFrontEnd::with_registry(&BleConfig::default(), registry());
+        let mut cfg = BleConfig::default();
+        cfg.kalman.staleness_s = 3.0;
+        let mut fe = BleFrontEnd::with_registry(&cfg, registry());
         fe.on_observation(&obs(0.0, "mac:00:00:00:00:00:01", -80.0));
         fe.on_observation(&obs(1.0, "mac:00:00:00:00:00:01", -70.0));
         assert_eq!(fe.current(3_500_000_000).len(), 1);

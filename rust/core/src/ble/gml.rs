@@ -190,8 +190,11 @@ mod tests {
     use crate::ble::grid::rect_grid;
     use crate::ble::testutil::{lattice_24, noise_free};
 
+    /// GML with d0 = 10 m (the tests' geometry is laid out for it).
     fn gml() -> Gml {
-        Gml::new(&BleConfig::default())
+        let mut cfg = BleConfig::default();
+        cfg.gml.d0_m = 10.0;
+        Gml::new(&cfg)
     }
 
     #[test]

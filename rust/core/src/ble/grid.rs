@@ -1,8 +1,7 @@
-//! Grid arrays for GML (FP-BP Sec. IV-A4) where the map's own grid is not at
-//! hand: a rectangle (tests, benches) and the walkable points of a floor map.
+//! A rectangular grid array for GML tests and benches (FP-BP Sec. IV-A4 on an
+//! open rectangle). Engines use the map's own `FloorMap::grid()`.
 
 use crate::Vec2;
-use crate::map::FloorMap;
 
 /// Grid points ((i + 0.5) I, (j + 0.5) I) covering [0, w] x [0, h], row by row.
 pub fn rect_grid(width_m: f64, height_m: f64, interval_m: f64) -> Vec<Vec2> {
@@ -21,15 +20,6 @@ pub fn rect_grid(width_m: f64, height_m: f64, interval_m: f64) -> Vec<Vec2> {
         }
     }
     g
-}
-
-/// The walkable grid points of `map` at `interval_m` (eq. before Sec. IV-B:
-/// points with M(g) = 0).
-pub fn walkable_grid(map: &FloorMap, interval_m: f64) -> Vec<Vec2> {
-    rect_grid(map.width_m(), map.height_m(), interval_m)
-        .into_iter()
-        .filter(|p| map.is_walkable(*p))
-        .collect()
 }
 
 #[cfg(test)]

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 
 use super::config::BleConfig;
 use super::frontend::{BleFrontEnd, FilteredBeacon};
-use super::grid::walkable_grid;
 use super::mean_filter::MeanFilter;
 use super::positioner::{BlePositioner, PositionerKind};
 use crate::Vec2;
@@ -41,13 +40,13 @@ pub struct BleTask {
 }
 
 impl BleTask {
-    /// A task on `site` with the positioner `kind`. Grids are built once per
-    /// floor (walkable points at the site's grid interval).
+    /// A task on `site` with the positioner `kind` (GML searches each floor's
+    /// `FloorMap::grid()`).
     pub fn new(kind: PositionerKind, cfg: &BleConfig, site: &Site) -> Self {
         let mut grids = BTreeMap::new();
         if kind == PositionerKind::Gml {
             for (spec, map) in site.spec.floors.iter().zip(&site.floors) {
-                grids.insert(spec.id, walkable_grid(map, site.spec.grid_interval_m));
+                grids.insert(spec.id, map.grid().to_vec());
             }
         }
         Self::with_parts(cfg, BleFrontEnd::new(cfg, site), kind.build(cfg), grids)
@@ -64,7 +63,7 @@ impl BleTask {
             cfg: cfg.clone(),
             front,
             positioner,
-            mean: MeanFilter::new(cfg.mean_window_n, cfg.mean_reset_s),
+            mean: MeanFilter::with_mode(cfg.mean_window_n, cfg.mean_reset_s, cfg.mean_mode),
             grids,
             last: None,
             nlos: (cfg.nlos.gml_mode != super::nlos::NlosGmlMode::Off)

@@ -39,8 +39,23 @@ pub struct PpcCounts {
     pub blocked: u64,
     pub door_blocked_same_room: u64,
     pub door_passed: u64,
+    pub door_snapped: u64,
     /// Particles moved off obstacles after eq. 44.
     pub particles_replaced: u64,
+}
+
+/// The nearest walkable point to `p` on rings of 0.1 m spacing (32 bearings
+/// each), up to `max_m`.
+fn nearest_walkable(map: &crate::map::FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
+    let rings = (max_m / 0.1).ceil() as usize;
+    (1..=rings).find_map(|k| {
+        let r = k as f64 * 0.1;
+        (0..32).find_map(|a| {
+            let th = a as f64 * std::f64::consts::TAU / 32.0;
+            let q = p + Vec2::new(r * th.cos(), r * th.sin());
+            map.is_walkable(q).then_some(q)
+        })
+    })
 }
 
 /// The BLE task: front end, GML and the eq. 22 mean filter.
@@ -89,11 +104,15 @@ pub struct FusionSide {
     /// Consecutive fresh fixes on another floor (floor change after
     /// `init_ble_fixes` of them).
     other_floor: Option<(i32, Vec<Vec2>)>,
+    /// Consecutive fresh x_B far from the fused position (re-localisation).
+    far_fixes: Vec<Vec2>,
     /// x^(k-1): the last output position.
     prev: Option<Vec2>,
     heading_rad: f64,
     pose: Option<Pose>,
     steps: u64,
+    /// Re-localisations so far.
+    pub relocalized: u64,
     pub ppc_counts: PpcCounts,
 }
 
@@ -116,10 +135,12 @@ impl FusionSide {
             init_fixes: Vec::new(),
             last_fix_t_ns: None,
             other_floor: None,
+            far_fixes: Vec::new(),
             prev: None,
             heading_rad: 0.0,
             pose: None,
             steps: 0,
+            relocalized: 0,
             ppc_counts: PpcCounts::default(),
         };
         if let Some(i) = init {
@@ -144,11 +165,18 @@ impl FusionSide {
     fn start(&mut self, at: Vec2, t_ns: Option<i64>) {
         let spread = self.cfg.init_spread_m;
         let map = self.site.floor(self.floor);
+        // A start on an obstacle (a mean of BLE fixes, a tap on a wall) moves
+        // to the nearest walkable point found within 5 m.
+        let at = match map {
+            Some(m) if !m.is_walkable(at) => nearest_walkable(m, at, 5.0).unwrap_or(at),
+            _ => at,
+        };
         self.pf
             .init_at(at, spread, |p| map.is_none_or(|m| m.is_walkable(p)));
         self.prev = Some(at);
         self.init_fixes.clear();
         self.other_floor = None;
+        self.far_fixes.clear();
         if let Some(t) = t_ns {
             self.publish(t, at);
         }
@@ -212,6 +240,22 @@ impl FusionSide {
         }
         if fresh {
             self.other_floor = None;
+            let n = self.cfg.relocalize_after_fixes as usize;
+            if n > 0
+                && let Some(prev) = self.prev
+            {
+                if (fix.pos - prev).norm() > self.cfg.relocalize_distance_m {
+                    self.far_fixes.push(fix.pos);
+                    if self.far_fixes.len() >= n {
+                        let mean = self.far_fixes.iter().sum::<Vec2>() / n as f64;
+                        self.relocalized += 1;
+                        self.start(mean, Some(t_ns));
+                        return None;
+                    }
+                } else {
+                    self.far_fixes.clear();
+                }
+            }
         }
         Some(fix)
     }
@@ -235,6 +279,12 @@ impl FusionSide {
         let fix = self.take_fix(t_ns, x_b);
         if !self.pf.is_initialized() {
             return;
+        }
+        if self.pose.is_none()
+            && let Some(p) = self.prev
+        {
+            // Started from an InitialPosition: publish it at the first run.
+            self.publish(t_ns, p);
         }
         let site = Arc::clone(&self.site);
         let map = site.floor(self.floor);
@@ -284,6 +334,7 @@ impl FusionSide {
             PpcCase::Blocked { .. } => c.blocked += 1,
             PpcCase::DoorBlockedSameRoom => c.door_blocked_same_room += 1,
             PpcCase::DoorPassed => c.door_passed += 1,
+            PpcCase::DoorSnapped => c.door_snapped += 1,
         }
     }
 

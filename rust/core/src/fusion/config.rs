@@ -45,6 +45,17 @@ pub struct PpcConfig {
     /// Farthest distance beyond a door's hit point searched for its far side
     /// (x_c of eq. 43), metres. Default 1.0.
     pub door_search_m: f64,
+    /// Whether a head-on door step also needs x_B in another room to pass
+    /// (the room test of eq. 43). `false`: the incident angle alone decides.
+    /// Default false (chosen on the demo logs, see docs/fusion.md; the
+    /// paper's value is true).
+    pub door_room_test: bool,
+    /// Door-snap extension (not in the paper): a step blocked by a wall with
+    /// no free candidate angle (Case 2) passes a door within this distance of
+    /// the hit point when it meets that door head-on, metres; 0 disables it.
+    /// Default 3.0 (chosen on the demo logs, see docs/fusion.md; the paper's
+    /// PPC is 0).
+    pub door_snap_m: f64,
 }
 
 impl Default for PpcConfig {
@@ -57,6 +68,19 @@ impl Default for PpcConfig {
             alpha0_rad: 60f64.to_radians(),
             raycast_step_m: 0.05,
             door_search_m: 1.0,
+            door_room_test: false,
+            door_snap_m: 3.0,
+        }
+    }
+}
+
+impl PpcConfig {
+    /// The paper's PPC with no extension: room test on, no door snap.
+    pub fn paper() -> Self {
+        PpcConfig {
+            door_room_test: true,
+            door_snap_m: 0.0,
+            ..PpcConfig::default()
         }
     }
 }
@@ -74,6 +98,12 @@ impl PpcConfig {
         pos(self.phi_rad, "phi_rad")?;
         pos(self.raycast_step_m, "raycast_step_m")?;
         pos(self.door_search_m, "door_search_m")?;
+        if !(self.door_snap_m.is_finite() && (0.0..=10.0).contains(&self.door_snap_m)) {
+            return Err(Error::config(
+                "fusion.ppc.door_snap_m",
+                "must be in [0, 10]",
+            ));
+        }
         if self.n_angles == 0 || self.n_angles as f64 * self.phi_rad > std::f64::consts::PI {
             return Err(Error::config(
                 "fusion.ppc.n_angles",
@@ -125,6 +155,14 @@ pub struct FusionConfig {
     /// A BLE position older than this is not used to weight particles (the
     /// filter dead-reckons on the map instead), seconds. Default 5.0.
     pub ble_max_age_s: f64,
+    /// Re-localisation (not in the paper): when this many consecutive fresh
+    /// x_B lie farther than `relocalize_distance_m` from the fused position,
+    /// the filter restarts at their mean (a track trapped in a wrong room by
+    /// PPC cannot leave it otherwise). 0 disables it (the paper). Default 5
+    /// (chosen on the demo logs, see docs/fusion.md).
+    pub relocalize_after_fixes: u32,
+    /// Distance of the re-localisation test, metres. Default 8.0.
+    pub relocalize_distance_m: f64,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -140,6 +178,8 @@ impl Default for FusionConfig {
             init_ble_fixes: 3,
             init_spread_m: 0.0,
             ble_max_age_s: 5.0,
+            relocalize_after_fixes: 5,
+            relocalize_distance_m: 8.0,
             ppc: PpcConfig::default(),
         }
     }
@@ -165,6 +205,7 @@ impl FusionConfig {
         nonneg(self.heading_noise_rad, "heading_noise_rad")?;
         nonneg(self.init_spread_m, "init_spread_m")?;
         nonneg(self.ble_max_age_s, "ble_max_age_s")?;
+        nonneg(self.relocalize_distance_m, "relocalize_distance_m")?;
         if !(self.sigma_x_m.is_finite() && self.sigma_x_m > 0.0) {
             return Err(Error::config("fusion.sigma_x_m", "must be > 0"));
         }

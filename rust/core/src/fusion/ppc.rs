@@ -33,6 +33,9 @@ pub trait PlanQueries {
     fn obstacle_normal(&self, p: Vec2) -> Option<Vec2>;
     /// The room (walkable contour) containing `p`, `None` on obstacles.
     fn room_id(&self, p: Vec2) -> Option<u32>;
+    /// Centres of the Door cells within `radius_m` of `p` (for the door-snap
+    /// extension).
+    fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2>;
 }
 
 /// Which branch of Algorithm 2 produced the position.
@@ -50,6 +53,10 @@ pub enum PpcCase {
     DoorBlockedSameRoom,
     /// Case 3 by eq. 43: the step passes the door.
     DoorPassed,
+    /// Extension (not in the paper, `door_snap_m > 0`): a step blocked by a
+    /// wall (Case 2) passes a door within `door_snap_m` of the hit point that
+    /// it meets head-on (alpha <= alpha_0).
+    DoorSnapped,
 }
 
 /// Result of [`correct`].
@@ -150,6 +157,16 @@ pub fn correct<M: PlanQueries + ?Sized>(
                 };
             }
         }
+        if hit.feature == Feature::Wall
+            && cfg.door_snap_m > 0.0
+            && let Some(pos) = snap_through_door(map, prev, s_hat, hit.point, cfg)
+        {
+            return PpcOutcome {
+                position: pos,
+                case: PpcCase::DoorSnapped,
+                alpha_rad,
+            };
+        }
         return PpcOutcome {
             position: back_off(map, prev, s_hat, hit.point, cfg),
             case: PpcCase::Blocked { hit: hit.feature },
@@ -159,7 +176,9 @@ pub fn correct<M: PlanQueries + ?Sized>(
 
     // Door met head-on: has the room changed (eq. 43)?
     let room_prev = map.room_id(prev);
-    let room_b = x_b.and_then(|b| map.room_id(b));
+    let room_b = x_b
+        .filter(|_| cfg.door_room_test)
+        .and_then(|b| map.room_id(b));
     let same_room = room_prev.is_some() && room_b == room_prev;
     if !same_room && let Some(x_c) = far_side_of_door(map, hit.point, s_hat, cfg) {
         let pos = x_c + s_hat * cfg.epsilon;
@@ -215,6 +234,52 @@ fn back_off<M: PlanQueries + ?Sized>(
     prev
 }
 
+/// The door-snap extension: among the door pixels within `door_snap_m` of
+/// the wall hit `h`, the nearest one that the step direction meets head-on
+/// (incident angle <= alpha_0 against its normal), that is reachable from
+/// `prev` and has a walkable far side; the position lands epsilon ŝ beyond
+/// that far side.
+fn snap_through_door<M: PlanQueries + ?Sized>(
+    map: &M,
+    prev: Vec2,
+    s_hat: Vec2,
+    h: Vec2,
+    cfg: &PpcConfig,
+) -> Option<Vec2> {
+    let len = s_hat.norm();
+    if len == 0.0 {
+        return None;
+    }
+    let dir = s_hat / len;
+    let mut doors = map.doors_near(h, cfg.door_snap_m);
+    doors.sort_by(|a, b| (a - h).norm_squared().total_cmp(&(b - h).norm_squared()));
+    for d in doors.into_iter().take(64) {
+        let Some(n) = map.obstacle_normal(d) else {
+            continue;
+        };
+        let n = if n.dot(&(-dir)) < 0.0 { -n } else { n };
+        if included_angle(n, -dir) > cfg.alpha0_rad {
+            continue;
+        }
+        // The near side of the door must be reachable from prev.
+        let near = d - dir * cfg.raycast_step_m * 2.0;
+        if map.feature_at(near) != Feature::Walkable
+            || map.raycast_from(prev, near, cfg.raycast_step_m).is_some()
+        {
+            continue;
+        }
+        if let Some(x_c) = far_side_of_door(map, d, s_hat, cfg) {
+            let pos = x_c + s_hat * cfg.epsilon;
+            return Some(if map.feature_at(pos) == Feature::Walkable {
+                pos
+            } else {
+                x_c
+            });
+        }
+    }
+    None
+}
+
 /// x_c of eq. 43: the first walkable point beyond the door along ŝ, searched
 /// up to `door_search_m` past the hit point.
 fn far_side_of_door<M: PlanQueries + ?Sized>(
@@ -268,6 +333,27 @@ impl PlanQueries for FloorMap {
 
     fn room_id(&self, p: Vec2) -> Option<u32> {
         self.room_of(p)
+    }
+
+    fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {
+        let mut out = Vec::new();
+        if self.door_pixel_count() == 0 {
+            return out;
+        }
+        let r = self.pixels_per_meter();
+        let q = self.mcs_to_ics(p);
+        let rp = (radius_m * r).ceil() as isize;
+        let (ci, cj) = (q.x.floor() as isize, q.y.floor() as isize);
+        let r2 = (radius_m * r) * (radius_m * r);
+        for j in cj - rp..=cj + rp {
+            for i in ci - rp..=ci + rp {
+                let (dx, dy) = (i as f64 + 0.5 - q.x, j as f64 + 0.5 - q.y);
+                if dx * dx + dy * dy <= r2 && self.feature_px(i, j) == Feature::Door {
+                    out.push(self.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5)));
+                }
+            }
+        }
+        out
     }
 }
 
@@ -348,8 +434,9 @@ mod tests {
         FloorMap::from_features(w, h, r, f)
     }
 
+    /// The paper's PPC (no extension) for the paper's cases.
     fn cfg() -> PpcConfig {
-        PpcConfig::default()
+        PpcConfig::paper()
     }
 
     fn step(len: f64, deg: f64) -> Vec2 {
@@ -516,6 +603,29 @@ mod tests {
         assert_eq!(o.case, PpcCase::DoorPassed);
     }
 
+    /// Extension: a head-on step into the wall 1.5 m beside a door passes
+    /// that door when door snapping is on, and is blocked when it is off.
+    #[test]
+    fn door_snap_passes_a_nearby_door() {
+        let m = two_rooms();
+        let prev = Vec2::new(4.5, 1.6);
+        let x_hat = prev + step(0.8, 0.0);
+        let off = correct(&m, prev, x_hat, None, &cfg());
+        assert_eq!(off.case, PpcCase::Blocked { hit: Feature::Wall });
+        let snap = PpcConfig {
+            door_snap_m: 3.0,
+            ..cfg()
+        };
+        let on = correct(&m, prev, x_hat, None, &snap);
+        assert_eq!(on.case, PpcCase::DoorSnapped);
+        assert!(
+            on.position.x > 5.2 && (2.5..3.5).contains(&on.position.y),
+            "{:?}",
+            on.position
+        );
+        assert!(m.is_walkable(on.position));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Whatever the step, the cloud and x_B, PPC leaves the position and
@@ -527,11 +637,15 @@ mod tests {
             spread in 0.0f64..3.0,
             bx in 0.0f64..10.0, by in 0.0f64..6.0,
             seed in 0u64..1000,
+            extensions in any::<bool>(),
         ) {
             let m = two_rooms();
             let prev = Vec2::new(px, py);
             prop_assume!(m.is_walkable(prev));
-            let fc = FusionConfig { particle_count: 200, ..FusionConfig::default() };
+            let mut fc = FusionConfig { particle_count: 200, ..FusionConfig::default() };
+            if !extensions {
+                fc.ppc = PpcConfig::paper();
+            }
             let mut pf = ParticleFilter::new(&fc, seed);
             pf.init_at(prev, spread, |_| true);
             pf.predict(len, deg.to_radians());

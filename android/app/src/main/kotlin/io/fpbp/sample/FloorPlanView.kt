@@ -1,0 +1,103 @@
+package io.fpbp.sample
+
+import android.content.Context
+import android.graphics.Bitmap
+import android.graphics.Canvas
+import android.graphics.Color
+import android.graphics.Matrix
+import android.graphics.Paint
+import android.view.MotionEvent
+import android.view.View
+import io.fpbp.Pose
+import kotlin.math.cos
+import kotlin.math.min
+import kotlin.math.sin
+
+/**
+ * Draws a floor's stylized plan scaled to fit, the live pose as a dot with a
+ * heading tick, and its accuracy circle. Map frame (MCS, metres, y up) to plan
+ * pixels (ICS, y down): x_I = x r, y_I = H - y r (FP-BP eq. 23), then the
+ * view's fit transform. A tap reports the MCS point under the finger.
+ */
+class FloorPlanView(context: Context) : View(context) {
+    private var plan: Bitmap? = null
+    private var pixelsPerMeter = 1.0
+    private var pose: Pose? = null
+    private var blePosition: Pose? = null
+    private val fit = Matrix()
+    private val inverse = Matrix()
+
+    /** Called with (x_m, y_m) of a tap on the plan. */
+    var onTap: ((Double, Double) -> Unit)? = null
+
+    private val dot = Paint(Paint.ANTI_ALIAS_FLAG).apply { color = Color.rgb(25, 118, 210) }
+    private val bleDot = Paint(Paint.ANTI_ALIAS_FLAG).apply { color = Color.rgb(255, 143, 0) }
+    private val circle = Paint(Paint.ANTI_ALIAS_FLAG).apply {
+        color = Color.argb(60, 25, 118, 210)
+        style = Paint.Style.FILL
+    }
+    private val ring = Paint(Paint.ANTI_ALIAS_FLAG).apply {
+        color = Color.rgb(25, 118, 210)
+        style = Paint.Style.STROKE
+        strokeWidth = 3f
+    }
+
+    /** Shows [bitmap], a plan at [pixelsPerMeter] pixels per metre. */
+    fun setPlan(bitmap: Bitmap?, pixelsPerMeter: Double) {
+        plan = bitmap
+        this.pixelsPerMeter = pixelsPerMeter
+        requestLayout()
+        invalidate()
+    }
+
+    /** Updates the pose (and the BLE-only position x_B); call on the UI thread. */
+    fun setPose(pose: Pose?, blePosition: Pose?) {
+        this.pose = pose
+        this.blePosition = blePosition
+        invalidate()
+    }
+
+    private fun toPlanPx(xM: Double, yM: Double): FloatArray {
+        val h = plan?.height ?: 0
+        val pts = floatArrayOf((xM * pixelsPerMeter).toFloat(), (h - yM * pixelsPerMeter).toFloat())
+        fit.mapPoints(pts)
+        return pts
+    }
+
+    override fun onDraw(canvas: Canvas) {
+        super.onDraw(canvas)
+        canvas.drawColor(Color.LTGRAY)
+        val bmp = plan ?: return
+        val s = min(width.toFloat() / bmp.width, height.toFloat() / bmp.height)
+        fit.reset()
+        fit.postScale(s, s)
+        fit.postTranslate((width - bmp.width * s) / 2f, (height - bmp.height * s) / 2f)
+        fit.invert(inverse)
+        canvas.drawBitmap(bmp, fit, null)
+        blePosition?.let { b ->
+            val p = toPlanPx(b.xM, b.yM)
+            canvas.drawCircle(p[0], p[1], 8f, bleDot)
+        }
+        val p = pose ?: return
+        val c = toPlanPx(p.xM, p.yM)
+        val r = (p.accuracyM * pixelsPerMeter * s).toFloat()
+        canvas.drawCircle(c[0], c[1], r, circle)
+        canvas.drawCircle(c[0], c[1], r, ring)
+        canvas.drawCircle(c[0], c[1], 12f, dot)
+        // Heading: MCS angle, y up; the screen's y is down.
+        val len = 36f
+        canvas.drawLine(c[0], c[1], c[0] + len * cos(p.headingRad).toFloat(), c[1] - len * sin(p.headingRad).toFloat(), ring)
+    }
+
+    override fun onTouchEvent(event: MotionEvent): Boolean {
+        val bmp = plan
+        if (event.action != MotionEvent.ACTION_UP || bmp == null) return true
+        val pts = floatArrayOf(event.x, event.y)
+        inverse.mapPoints(pts)
+        onTap?.invoke(pts[0] / pixelsPerMeter, (bmp.height - pts[1]) / pixelsPerMeter)
+        performClick()
+        return true
+    }
+
+    override fun performClick(): Boolean = super.performClick()
+}

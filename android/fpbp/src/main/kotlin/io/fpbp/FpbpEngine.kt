@@ -1,0 +1,108 @@
+package io.fpbp
+
+import java.util.concurrent.atomic.AtomicBoolean
+
+/**
+ * A running positioning engine (one native handle).
+ *
+ * Feed it with [onSensor], [onBleScan] (and [onGnss]) from any thread, run its
+ * two tasks with [TaskScheduler] (real time) or [LogClockDriver] (replay), read
+ * [pose] from any thread. [close] is idempotent; any other call after it throws
+ * [IllegalStateException].
+ */
+class FpbpEngine private constructor(
+    /** The native handle (for [NativeBridge] calls). */
+    val handle: Long,
+    /** The engine's name. */
+    val engineName: String,
+) : AutoCloseable {
+    private val closed = AtomicBoolean(false)
+
+    companion object {
+        /**
+         * Starts engine [engine] on the site described by [siteJson], whose plan
+         * paths are relative to [siteDir]. [configJson] is an engine config
+         * (empty = defaults). Throws [IllegalArgumentException] naming the bad
+         * field, file or name.
+         */
+        @JvmStatic
+        @JvmOverloads
+        fun start(
+            siteJson: String,
+            siteDir: String,
+            engine: String,
+            configJson: String = "",
+            init: InitialPosition? = null,
+        ): FpbpEngine {
+            val h = NativeBridge.start(siteJson, siteDir, configJson, engine, init?.toNative())
+            return FpbpEngine(h, engine)
+        }
+
+        /** Names [start] accepts. */
+        @JvmStatic
+        fun engineNames(): List<String> = NativeBridge.engineNames().split(',').filter { it.isNotEmpty() }
+    }
+
+    /** Whether [close] was called. */
+    val isClosed: Boolean get() = closed.get()
+
+    /** One sensor sample (Android `Sensor.TYPE_*`, `SensorEvent.values`). */
+    fun onSensor(sensorType: Int, tNs: Long, values: DoubleArray) =
+        NativeBridge.onSensor(handle, sensorType, tNs, values)
+
+    /** One sensor sample from `SensorEvent.values` (floats widen exactly). */
+    fun onSensor(sensorType: Int, tNs: Long, values: FloatArray) =
+        NativeBridge.onSensor(handle, sensorType, tNs, DoubleArray(values.size) { values[it].toDouble() })
+
+    /** One BLE advertisement; [txPowerDbm] null when the frame has none. */
+    fun onBleScan(tNs: Long, beaconId: String, rssiDbm: Double, txPowerDbm: Double? = null) =
+        NativeBridge.onBleScan(handle, tNs, beaconId, rssiDbm, txPowerDbm ?: Double.NaN)
+
+    /** One GNSS fix; optional values null when absent. */
+    fun onGnss(
+        tNs: Long,
+        latDeg: Double,
+        lonDeg: Double,
+        altM: Double? = null,
+        accuracyM: Double? = null,
+        speedMps: Double? = null,
+        bearingDeg: Double? = null,
+    ) = NativeBridge.onGnss(
+        handle, tNs, latDeg, lonDeg,
+        altM ?: Double.NaN, accuracyM ?: Double.NaN, speedMps ?: Double.NaN, bearingDeg ?: Double.NaN,
+    )
+
+    /** Runs the BLE (GML) task once at [tNs] (what [GmlTask] calls). */
+    fun runGml(tNs: Long) = NativeBridge.runGml(handle, tNs)
+
+    /** Runs the fusion task once at [tNs] (what [FusionTask] calls). */
+    fun runFusion(tNs: Long) = NativeBridge.runFusion(handle, tNs)
+
+    /** Period of the BLE (GML) task, ns; 0 when the engine has none. */
+    val gmlPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_GML)
+
+    /** Period of the fusion task, ns; 0 when the engine has none. */
+    val fusionPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_FUSION)
+
+    /** The latest pose, null before the first fix. */
+    fun pose(): Pose? {
+        val out = DoubleArray(NativeBridge.POSE_LEN)
+        return Pose.fromNative(NativeBridge.getPose(handle, out), out)
+    }
+
+    /** The last BLE-only position (x_B), null when the engine has none. */
+    fun blePosition(): Pose? {
+        val out = DoubleArray(NativeBridge.POSE_LEN)
+        return Pose.fromNative(NativeBridge.getBlePosition(handle, out), out)
+    }
+
+    /** Input/output counters as JSON (rejected samples are counted here). */
+    fun statsJson(): String = NativeBridge.stats(handle)
+
+    /** Stops the engine. Safe to call more than once and from several threads. */
+    override fun close() {
+        if (closed.compareAndSet(false, true)) {
+            NativeBridge.stop(handle)
+        }
+    }
+}

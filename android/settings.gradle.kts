@@ -1,0 +1,21 @@
+// fpbp Android project: the Kotlin library (:fpbp, JVM-only, no android.* imports)
+// and the sample app (:app). Open this folder (android/) in Android Studio with
+// the NDK and cargo-ndk installed; see README.md.
+pluginManagement {
+    repositories {
+        google()
+        mavenCentral()
+        gradlePluginPortal()
+    }
+}
+
+dependencyResolutionManagement {
+    repositoriesMode.set(RepositoriesMode.FAIL_ON_PROJECT_REPOS)
+    repositories {
+        google()
+        mavenCentral()
+    }
+}
+
+rootProject.name = "fpbp-android"
+include(":fpbp", ":app")

@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# JVM host verification of the JNI surface (called by scripts/test.sh).
+#
+# 1. builds libfpbp for the host and the two reference examples
+#    (rust/jni/examples/{replay_reference,log_echo}.rs);
+# 2. computes the pure-Rust replay of a shipped log (the reference track);
+# 3. with Maven (batch, quiet): compiles the Kotlin library (android/fpbp) and
+#    the sample app sources (android/app, against Robolectric's android-all
+#    jar) and runs the JUnit 5 tests against the real libfpbp:
+#    replay equality (a), hammer (b), exceptions (c), native log round trip;
+# 4. prints the Surefire summary;
+# 5. runs host-tests/android-check.sh (Android targets, best effort).
+#
+# Options: --bench  run only the JNI per-call overhead benchmark (prints figures).
+# Env: FPBP_ENGINE (engine of the replay test, default fpbp),
+#      FPBP_REPLAY_LOG (log to replay, default: host-tests/logs/demo-walk-1.log.gz,
+#      else the first of host-tests/logs/*.log* by name),
+#      FPBP_REPLAY_SITE (default maps/demo/site.json).
+set -euo pipefail
+here="$(cd "$(dirname "$0")" && pwd)"
+repo="$(cd "$here/../.." && pwd)"
+cd "$repo"
+target="${CARGO_TARGET_DIR:-$repo/target}"
+bench=0
+[ "${1:-}" = "--bench" ] && bench=1
+
+if ! command -v mvn >/dev/null || ! command -v java >/dev/null; then
+  echo "skipped: JVM host tests need mvn and java on PATH"
+  exit 0
+fi
+
+echo "== cargo build --release -p fpbp-jni (libfpbp + reference examples)"
+cargo build --release -p fpbp-jni --lib --examples
+lib="$target/release"
+[ -f "$lib/libfpbp.so" ] || [ -f "$lib/libfpbp.dylib" ] || { echo "libfpbp not found in $lib"; exit 1; }
+
+out="$target/fpbp-host-tests"
+mkdir -p "$out"
+engine="${FPBP_ENGINE:-fpbp}"
+site="${FPBP_REPLAY_SITE:-$repo/maps/demo/site.json}"
+default_log="$repo/host-tests/logs/demo-walk-1.log.gz"
+[ -f "$default_log" ] || default_log="$(ls "$repo"/host-tests/logs/*.log "$repo"/host-tests/logs/*.log.gz 2>/dev/null | sort | head -n 1 || true)"
+log="${FPBP_REPLAY_LOG:-$default_log}"
+init="none"
+props=()
+if [ $bench -eq 0 ]; then
+  [ -f "$site" ] || { echo "replay test: site $site not found"; exit 1; }
+  if [ -z "$log" ] || [ ! -f "$log" ]; then
+    echo "NOTE: no shipped log in host-tests/logs/: the replay equality test will be reported SKIPPED"
+    log="none"
+  fi
+  # The pure-Rust reference; falls back to another engine (with a note) only
+  # while `fpbp` is not registered.
+  ok=0
+  [ "$log" = none ] && ok=1 && : >"$out/reference.txt"
+  for e in "$engine" bp gml pdr; do
+    [ $ok -eq 1 ] && break
+    extra=()
+    [ "$e" = pdr ] && extra=(--init-first-truth)
+    if "$lib/examples/replay_reference" --site "$site" --log "$log" --engine "$e" "${extra[@]}" \
+        --out "$out/reference.txt" 2>"$out/reference.err"; then
+      cat "$out/reference.err"
+      [ "$e" != "$engine" ] && echo "NOTE: engine \`$engine\` is not available; replay equality runs on \`$e\`"
+      engine="$e"
+      [ "$e" = pdr ] && init="first-truth"
+      ok=1
+      break
+    fi
+    grep -q "unknown engine" "$out/reference.err" || { cat "$out/reference.err"; exit 1; }
+  done
+  [ $ok -eq 1 ] || { cat "$out/reference.err"; exit 1; }
+  [ "$log" = none ] || echo "== reference: $(basename "$log") on \`$engine\` (init $init)"
+fi
+props+=(
+  "-Dfpbp.libdir=$lib"
+  "-Dfpbp.repo=$repo"
+  "-Dfpbp.replay.site=$site"
+  "-Dfpbp.replay.log=$log"
+  "-Dfpbp.replay.reference=$out/reference.txt"
+  "-Dfpbp.replay.engine=$engine"
+  "-Dfpbp.replay.init=$init"
+  "-Dfpbp.log_echo=$lib/examples/log_echo"
+)
+if [ $bench -eq 1 ]; then
+  props+=("-Dsurefire.groups=bench" "-Dsurefire.excludedGroups=" "-Dtest=JniOverheadBench" "-Dfpbp.checkjni=")
+fi
+
+echo "== mvn -B -q test (Kotlin $(sed -n 's:.*<kotlin.version>\(.*\)</kotlin.version>.*:\1:p' "$here/pom.xml"), JUnit 5, libfpbp from $lib)"
+rm -rf "$here/target/surefire-reports"
+status=0
+(cd "$here" && mvn -B -q -Dstyle.color=never "${props[@]}" clean test) || status=$?
+
+# Surefire summary (mvn -q hides Surefire's own).
+python3 - "$here/target/surefire-reports" <<'PY' || true
+import glob, sys, xml.etree.ElementTree as ET
+t = f = e = s = 0
+for p in sorted(glob.glob(sys.argv[1] + "/TEST-*.xml")):
+    r = ET.parse(p).getroot()
+    n, fl, er, sk = (int(r.get(k, 0)) for k in ("tests", "failures", "errors", "skipped"))
+    t += n; f += fl; e += er; s += sk
+    print(f"  {r.get('name')}: {n} tests, {fl} failures, {er} errors, {sk} skipped")
+print(f"Surefire: Tests run: {t}, Failures: {f}, Errors: {e}, Skipped: {s}")
+print(f"jvm: {t - f - e - s} passed, {f + e} failed, {s} skipped")
+PY
+[ $status -eq 0 ] || { echo "JVM host tests FAILED (mvn exit $status)"; exit $status; }
+
+if [ $bench -eq 0 ] && [ -x "$repo/host-tests/android-check.sh" ]; then
+  "$repo/host-tests/android-check.sh"
+fi

@@ -147,7 +147,7 @@ impl Site {
             .floors
             .iter()
             .position(|f| f.id == id)
-            .map(|i| &self.floors[i])
+            .and_then(|i| self.floors.get(i))
     }
 
     /// The first floor's id (the default floor of single-floor engines).

@@ -10,10 +10,12 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
+use fpbp_core::Vec2;
 use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
+use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::site::SiteSpec;
 use fpbp_logs::{ReadOptions, read_all};
 
@@ -282,6 +284,33 @@ pub fn run(args: Args) -> Result<()> {
                 r.floor
             ));
             summary.accepted -= 1;
+            continue;
+        }
+        // Site files refuse beacons on Wall pixels. A fitted position inside a
+        // wall (ceiling beacons above shop fronts, fitting error) moves to the
+        // nearest non-Wall point within MAX_WALL_SHIFT_M; farther ones are dropped.
+        let Some(map) = input.floor(r.floor) else {
+            continue;
+        };
+        match nearest_non_wall(map, Vec2::new(x, y), MAX_WALL_SHIFT_M) {
+            Some(p) if p != Vec2::new(x, y) => {
+                eprintln!(
+                    "{}: fitted at ({x:.1}, {y:.1}) m inside a wall, moved {:.2} m to ({:.1}, {:.1})",
+                    r.id,
+                    (p - Vec2::new(x, y)).norm(),
+                    p.x,
+                    p.y
+                );
+                r.x_m = Some(p.x);
+                r.y_m = Some(p.y);
+            }
+            Some(_) => {}
+            None => {
+                r.rejected = Some(format!(
+                    "fitted at ({x:.1}, {y:.1}) m inside a wall, no open floor within {MAX_WALL_SHIFT_M} m"
+                ));
+                summary.accepted -= 1;
+            }
         }
     }
     print_table(&reports);
@@ -314,4 +343,33 @@ pub fn run(args: Args) -> Result<()> {
         check(&args, &out, &cfg)?;
     }
     Ok(())
+}
+
+/// Largest move of a fitted beacon out of a wall, metres.
+const MAX_WALL_SHIFT_M: f64 = 3.0;
+
+/// The centre of the nearest non-Wall pixel to `p` within `max_m` (`p` itself
+/// when it is not on a Wall pixel).
+fn nearest_non_wall(map: &FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
+    if map.feature(p) != Feature::Wall {
+        return Some(p);
+    }
+    let (ci, cj) = map.pixel_of(p)?;
+    let r = map.pixels_per_meter();
+    let max_px = (max_m * r).ceil() as isize;
+    let mut best: Option<(f64, Vec2)> = None;
+    for dj in -max_px..=max_px {
+        for di in -max_px..=max_px {
+            let (i, j) = (ci as isize + di, cj as isize + dj);
+            if map.feature_px(i, j) == Feature::Wall {
+                continue;
+            }
+            let q = map.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5));
+            let d = (q - p).norm();
+            if d <= max_m && best.is_none_or(|(b, _)| d < b) {
+                best = Some((d, q));
+            }
+        }
+    }
+    best.map(|(_, q)| q)
 }

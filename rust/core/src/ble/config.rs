@@ -19,9 +19,13 @@ pub struct BleConfig {
     pub phone_height_m: f64,
     /// Smallest range used in the path-loss model, metres (avoids log 0). Default 0.5.
     pub min_distance_m: f64,
-    /// n of eq. 22: the BLE position is the mean of the current estimate and the
-    /// previous n - 1 outputs. 1 disables the mean filter. Default 3.
+    /// n of eq. 22: the BLE position is the mean of the current estimate and
+    /// n - 1 earlier terms (see `mean_mode`). 1 disables the mean filter. Default 3.
     pub mean_window_n: usize,
+    /// Which earlier terms eq. 22 averages: `estimates` (the previous raw
+    /// estimates, a moving average) or `outputs` (the previous outputs, the
+    /// literal recursive reading). Default `estimates`.
+    pub mean_mode: super::mean_filter::MeanMode,
     /// The mean filter forgets its history when the last output is older than
     /// this, seconds. Default 5.
     pub mean_reset_s: f64,
@@ -47,6 +51,7 @@ impl Default for BleConfig {
             phone_height_m: 1.2,
             min_distance_m: 0.5,
             mean_window_n: 3,
+            mean_mode: super::mean_filter::MeanMode::Estimates,
             mean_reset_s: 5.0,
             gml: GmlConfig::default(),
             trilat: TrilatConfig::default(),

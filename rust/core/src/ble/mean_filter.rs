@@ -1,26 +1,51 @@
-//! The mean filter of FP-BP eq. 22: x_B(t) = (y* + sum_{i=1}^{n-1} x_B(t-i)) / n,
-//! i.e. the current estimate averaged with the previous n - 1 *outputs*
-//! (fewer at start-up: the divisor is 1 + the number of outputs kept). The
-//! history is forgotten after a gap longer than `reset_s` or on a floor change.
+//! The mean filter of FP-BP eq. 22: x_B(t) = (y* + sum_{i=1}^{n-1} x_B(t-i)) / n.
+//!
+//! The paper's text ("mean filtering to multiple historical results") leaves
+//! open whether x_B(t-i) are the previous *outputs* (a recursive filter, the
+//! literal reading of the equation) or the previous raw estimates y* (a
+//! moving average). Both are here ([`MeanMode`]); the moving average lags less
+//! and is the default (docs/parameters.md gives the measurements). Fewer terms
+//! at start-up: the divisor is 1 + the number of terms kept. The history is
+//! forgotten after a gap longer than `reset_s` or on a floor change.
 
 use std::collections::VecDeque;
 
+use serde::{Deserialize, Serialize};
+
 use crate::Vec2;
+
+/// Which history eq. 22 averages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MeanMode {
+    /// The previous n - 1 raw estimates y* (a moving average).
+    Estimates,
+    /// The previous n - 1 filter outputs x_B (the literal, recursive reading).
+    Outputs,
+}
 
 /// State of the eq. 22 filter.
 #[derive(Debug, Clone)]
 pub struct MeanFilter {
     n: usize,
     reset_ns: i64,
-    history: VecDeque<(i64, Vec2)>,
+    mode: MeanMode,
+    /// (time, term kept for the next calls, output).
+    history: VecDeque<(i64, Vec2, Vec2)>,
 }
 
 impl MeanFilter {
-    /// `n` >= 1 (1 passes estimates through), `reset_s` > 0.
+    /// The literal (recursive) eq. 22; `n` >= 1 (1 passes estimates through), `reset_s` > 0.
     pub fn new(n: usize, reset_s: f64) -> Self {
+        Self::with_mode(n, reset_s, MeanMode::Outputs)
+    }
+
+    /// Eq. 22 over the history chosen by `mode`.
+    pub fn with_mode(n: usize, reset_s: f64, mode: MeanMode) -> Self {
         MeanFilter {
             n: n.max(1),
             reset_ns: (reset_s * 1e9) as i64,
+            mode,
             history: VecDeque::new(),
         }
     }
@@ -32,7 +57,7 @@ impl MeanFilter {
 
     /// Filters the estimate `y` made at `t_ns` and returns x_B(t).
     pub fn push(&mut self, t_ns: i64, y: Vec2) -> Vec2 {
-        if let Some(&(t_last, _)) = self.history.back()
+        if let Some(&(t_last, _, _)) = self.history.back()
             && t_ns - t_last > self.reset_ns
         {
             self.history.clear();
@@ -41,20 +66,24 @@ impl MeanFilter {
         while self.history.len() > keep {
             self.history.pop_front();
         }
-        let sum = self.history.iter().fold(y, |acc, (_, p)| acc + p);
+        let sum = self.history.iter().fold(y, |acc, (_, p, _)| acc + p);
         let out = sum / (self.history.len() + 1) as f64;
         if keep > 0 {
             if self.history.len() == keep {
                 self.history.pop_front();
             }
-            self.history.push_back((t_ns, out));
+            let term = match self.mode {
+                MeanMode::Estimates => y,
+                MeanMode::Outputs => out,
+            };
+            self.history.push_back((t_ns, term, out));
         }
         out
     }
 
     /// The latest output.
     pub fn last(&self) -> Option<(i64, Vec2)> {
-        self.history.back().copied()
+        self.history.back().map(|&(t, _, out)| (t, out))
     }
 }
 
@@ -78,6 +107,18 @@ mod tests {
         // a gap longer than reset_s forgets the history
         let e = f.push(20 * s, Vec2::new(1.0, 1.0));
         assert_eq!(e, Vec2::new(1.0, 1.0));
+    }
+
+    #[test]
+    fn estimates_mode_is_a_moving_average_of_raw_estimates() {
+        let mut f = MeanFilter::with_mode(3, 5.0, MeanMode::Estimates);
+        let s = 1_000_000_000;
+        assert_eq!(f.push(0, Vec2::new(3.0, 0.0)), Vec2::new(3.0, 0.0));
+        assert_eq!(f.push(s, Vec2::new(6.0, 0.0)), Vec2::new(4.5, 0.0));
+        assert_eq!(f.push(2 * s, Vec2::new(9.0, 3.0)), Vec2::new(6.0, 1.0));
+        // the oldest estimate (3, 0) has left the window
+        assert_eq!(f.push(3 * s, Vec2::new(0.0, 0.0)), Vec2::new(5.0, 1.0));
+        assert_eq!(f.last(), Some((3 * s, Vec2::new(5.0, 1.0))));
     }
 
     #[test]

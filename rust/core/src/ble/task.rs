@@ -61,7 +61,7 @@ impl BleTask {
             cfg: cfg.clone(),
             front,
             positioner,
-            mean: MeanFilter::new(cfg.mean_window_n, cfg.mean_reset_s),
+            mean: MeanFilter::with_mode(cfg.mean_window_n, cfg.mean_reset_s, cfg.mean_mode),
             grids,
             last: None,
             no_fix: 0,

@@ -67,6 +67,7 @@ fn fusion_step(c: &mut Criterion) {
     pf.init_at(start, 1.0, |p| map.is_walkable(p));
     let mut prev = start;
     let mut k = 0u64;
+    let mut before: Vec<Vec2> = Vec::new();
     c.bench_function("fusion_step_1000_particles_ppc", |b| {
         b.iter(|| {
             // Walk east along the corridor, weaving into the walls now and then.
@@ -74,8 +75,14 @@ fn fusion_step(c: &mut Criterion) {
             let yaw = if k % 8 < 4 { 0.6 } else { -0.6 };
             let x_b = prev + Vec2::new(1.0, 0.0);
             // (x_B leads the walker by 1 m along the corridor.)
+            before.clear();
+            before.extend_from_slice(pf.particles());
             pf.predict(0.7, yaw);
             pf.weight(x_b);
+            // The default particle wall check (extension, see docs/fusion.md).
+            pf.penalize_moves(&before, |a, b| {
+                map.raycast(a, b, cfg.ppc.raycast_step_m).is_some()
+            });
             let x_hat = pf.mean().unwrap_or(prev);
             pf.resample();
             let o = ppc::correct(&map, prev, x_hat, Some(x_b), &cfg.ppc);

@@ -104,6 +104,8 @@ pub struct FusionSide {
     /// Consecutive fresh fixes on another floor (floor change after
     /// `init_ble_fixes` of them).
     other_floor: Option<(i32, Vec<Vec2>)>,
+    /// Particle positions before the last move (particle wall check).
+    before: Vec<Vec2>,
     /// Consecutive fresh x_B far from the fused position (re-localisation).
     far_fixes: Vec<Vec2>,
     /// x^(k-1): the last output position.
@@ -136,6 +138,7 @@ impl FusionSide {
             last_fix_t_ns: None,
             other_floor: None,
             far_fixes: Vec::new(),
+            before: Vec::new(),
             prev: None,
             heading_rad: 0.0,
             pose: None,
@@ -294,9 +297,19 @@ impl FusionSide {
                 continue;
             }
             self.steps += 1;
+            let check = self.use_ppc && self.cfg.particle_wall_check && map.is_some();
+            if check {
+                self.before.clear();
+                self.before.extend_from_slice(self.pf.particles());
+            }
             self.pf.predict(length_m, yaw_rad);
             if let Some(f) = fix {
                 self.pf.weight(f.pos);
+            }
+            if check && let Some(m) = map {
+                let step_m = self.cfg.ppc.raycast_step_m;
+                self.pf
+                    .penalize_moves(&self.before, |a, b| m.raycast(a, b, step_m).is_some());
             }
             let Some(x_hat) = self.pf.mean() else { return };
             self.pf.resample();
@@ -489,11 +502,21 @@ mod tests {
     /// Walks east along the corridor with a heading bias of +0.25 rad (the
     /// PDR drifts into the north wall); x_B is the truth plus a fixed offset.
     fn walk(use_ppc: bool, seed: u64, with_ble: bool) -> (Vec<Vec2>, FusionSide) {
+        walk_cfg(use_ppc, seed, with_ble, false)
+    }
+
+    fn walk_cfg(
+        use_ppc: bool,
+        seed: u64,
+        with_ble: bool,
+        particle_wall_check: bool,
+    ) -> (Vec<Vec2>, FusionSide) {
         let site = corridor_site();
-        let cfg = EngineConfig {
+        let mut cfg = EngineConfig {
             seed,
             ..EngineConfig::default()
         };
+        cfg.fusion.particle_wall_check = particle_wall_check;
         let init = InitialPosition {
             x_m: 1.0,
             y_m: 2.0,
@@ -534,6 +557,11 @@ mod tests {
         let (bp, _) = walk(false, 1, false);
         assert!(bp.iter().any(|p| !map.is_walkable(*p)));
         // With PPC the walker still makes progress east along the wall.
+        assert!(track.last().unwrap().x > 10.0, "{:?}", track.last());
+        // With the particle wall check (default) the cloud itself stays in.
+        let (track, side) = walk_cfg(true, 1, false, true);
+        assert!(track.iter().all(|p| map.is_walkable(*p)), "{track:?}");
+        assert!(side.particles().iter().all(|p| map.is_walkable(*p)));
         assert!(track.last().unwrap().x > 10.0, "{:?}", track.last());
     }
 

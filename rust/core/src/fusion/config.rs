@@ -163,6 +163,10 @@ pub struct FusionConfig {
     pub relocalize_after_fixes: u32,
     /// Distance of the re-localisation test, metres. Default 8.0.
     pub relocalize_distance_m: f64,
+    /// Extension (not in the paper): particles whose own move crosses a
+    /// Wall or Door get weight 0 before resampling (`fpbp` only). Default
+    /// true (chosen on the demo logs, see docs/fusion.md; the paper has none).
+    pub particle_wall_check: bool,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -180,6 +184,7 @@ impl Default for FusionConfig {
             ble_max_age_s: 5.0,
             relocalize_after_fixes: 5,
             relocalize_distance_m: 8.0,
+            particle_wall_check: true,
             ppc: PpcConfig::default(),
         }
     }

@@ -89,6 +89,28 @@ impl ParticleFilter {
         }
     }
 
+    /// Extension (not in the paper): zeroes the weight of every particle
+    /// whose last move (from `before[i]` to its position) `crossed` an
+    /// obstacle, then renormalises (uniform when every particle crossed).
+    /// Returns how many were zeroed.
+    pub fn penalize_moves(
+        &mut self,
+        before: &[Vec2],
+        crossed: impl Fn(Vec2, Vec2) -> bool,
+    ) -> usize {
+        let mut n = 0;
+        for ((w, p), b) in self.weights.iter_mut().zip(&self.particles).zip(before) {
+            if crossed(*b, *p) {
+                *w = 0.0;
+                n += 1;
+            }
+        }
+        if n > 0 {
+            self.normalize();
+        }
+        n
+    }
+
     /// Weights of eq. 36 against the BLE position `x_b`, normalised to sum 1.
     /// The constant 1/sqrt(2 pi sigma^2) cancels in the normalisation; the
     /// exponent is shifted by its maximum so far-away fixes do not underflow.

@@ -22,6 +22,7 @@ pub mod mean_filter;
 pub mod pathloss;
 pub mod positioner;
 pub mod registry;
+pub mod rssi_bias;
 pub mod task;
 
 pub use beacon_id::{BeaconId, normalize_beacon_id};

@@ -33,6 +33,8 @@ pub struct EngineConfig {
     pub pdr: PdrConfig,
     pub ble: BleConfig,
     pub fusion: FusionConfig,
+    /// The EKF engines (`robust-ekf`, `tc-ekf`) and the floor tracker.
+    pub ekf: crate::kalman::EkfConfig,
 }
 
 impl Default for EngineConfig {
@@ -43,6 +45,7 @@ impl Default for EngineConfig {
             pdr: PdrConfig::default(),
             ble: BleConfig::default(),
             fusion: FusionConfig::default(),
+            ekf: crate::kalman::EkfConfig::default(),
         }
     }
 }
@@ -73,6 +76,7 @@ impl EngineConfig {
         }
         self.pdr.validate()?;
         self.ble.validate()?;
+        self.ekf.validate()?;
         self.fusion.validate()
     }
 }

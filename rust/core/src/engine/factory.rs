@@ -15,6 +15,8 @@ pub const ENGINE_NAMES: &[&str] = &[
     "frbw",
     "ml",
     "wcentroid",
+    "robust-ekf",
+    "tc-ekf",
 ];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
@@ -39,6 +41,12 @@ pub fn build_engine(
             init,
         )?)),
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
+            site, config, init,
+        )?)),
+        "robust-ekf" => Ok(Box::new(crate::engines::robust_ekf::RobustEkfEngine::new(
+            site, config, init,
+        )?)),
+        "tc-ekf" => Ok(Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
             site, config, init,
         )?)),
         _ => Err(Error::UnknownEngine(

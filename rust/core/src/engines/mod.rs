@@ -3,3 +3,5 @@
 pub mod ble_only;
 pub mod fpbp;
 pub mod pdr;
+pub mod robust_ekf;
+pub mod tc_ekf;

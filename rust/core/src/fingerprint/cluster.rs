@@ -216,15 +216,15 @@ impl SubDatabases {
         }
     }
 
-    /// The `n` clusters whose centres are nearest to `scan`, nearest first
-    /// (empty clusters skipped).
+    /// The `n` clusters whose centres are nearest to `scan` (NaN = not heard,
+    /// see [`super::scan_distance`]), nearest first (empty clusters skipped).
     pub fn best(&self, scan: &[f64], n: usize) -> Vec<usize> {
         let mut c: Vec<(usize, f64)> = self
             .centres
             .iter()
             .enumerate()
             .filter(|(i, _)| !self.members[*i].is_empty())
-            .map(|(i, c)| (i, rssi_distance(scan, c)))
+            .map(|(i, c)| (i, super::scan_distance(scan, c)))
             .collect();
         c.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         c.into_iter().take(n).map(|(i, _)| i).collect()

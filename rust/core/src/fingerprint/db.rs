@@ -84,14 +84,16 @@ impl FingerprintDb {
     }
 
     /// The scan as a vector over this database's beacons: `rssi_of(registry
-    /// index)` gives the heard RSSI; others take `missing_rssi_dbm`.
+    /// index)` gives the heard RSSI (raised to `missing_rssi_dbm`); beacons
+    /// not heard are NaN (matching compares heard beacons only, see
+    /// [`super::scan_distance`]).
     pub fn scan_vector(&self, rssi_of: impl Fn(usize) -> Option<f64>) -> Vec<f64> {
         self.beacons
             .iter()
             .map(|b| {
                 rssi_of(b.registry_index)
                     .filter(|r| r.is_finite())
-                    .map_or(self.missing_rssi_dbm, |r| r.max(self.missing_rssi_dbm))
+                    .map_or(f64::NAN, |r| r.max(self.missing_rssi_dbm))
             })
             .collect()
     }

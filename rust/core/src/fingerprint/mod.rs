@@ -44,6 +44,8 @@ pub struct FingerprintConfig {
     pub search_clusters: usize,
     /// k of WKNN. Default 4.
     pub wknn_k: usize,
+    /// Only the strongest this many heard beacons of a scan are matched. Default 8.
+    pub scan_max_beacons: usize,
 }
 
 impl Default for FingerprintConfig {
@@ -58,6 +60,7 @@ impl Default for FingerprintConfig {
             outlier_relative_density: 0.5,
             search_clusters: 2,
             wknn_k: 4,
+            scan_max_beacons: 8,
         }
     }
 }
@@ -102,4 +105,21 @@ pub fn rssi_distance(a: &[f64], b: &[f64]) -> f64 {
         .map(|(x, y)| (x - y) * (x - y))
         .sum::<f64>()
         .sqrt()
+}
+
+/// RMS difference over the entries where `scan` is not NaN (beacons heard),
+/// dB; infinite when the scan holds none.
+pub fn scan_distance(scan: &[f64], fp: &[f64]) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (a, b) in scan.iter().zip(fp) {
+        if !a.is_nan() {
+            sum += (a - b) * (a - b);
+            n += 1;
+        }
+    }
+    if n == 0 {
+        f64::INFINITY
+    } else {
+        (sum / n as f64).sqrt()
+    }
 }

@@ -1,18 +1,18 @@
 //! Weighted k-nearest-neighbour position estimate in RSSI space.
 
 use super::db::FingerprintDb;
-use super::rssi_distance;
+use super::scan_distance;
 use crate::Vec2;
 
 /// WKNN over the points `candidates` of `db`: the `k` nearest in RSSI
-/// distance, weighted by 1/(d + 1e-3). `None` without candidates.
+/// distance over the heard beacons ([`super::scan_distance`]), weighted by 1/(d + 1e-3). `None` without candidates.
 pub fn wknn(db: &FingerprintDb, candidates: &[usize], scan: &[f64], k: usize) -> Option<Vec2> {
     let mut d: Vec<(usize, f64)> = candidates
         .iter()
         .filter_map(|&i| {
             db.points
                 .get(i)
-                .map(|p| (i, rssi_distance(scan, &p.rssi_dbm)))
+                .map(|p| (i, scan_distance(scan, &p.rssi_dbm)))
         })
         .filter(|(_, d)| d.is_finite())
         .collect();

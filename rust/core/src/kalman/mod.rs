@@ -1,6 +1,10 @@
 //! Shared EKF math: the measurement update with IGG3 equivalent weights
 //! (BMW paper eqs. 22-24), used by `robust-ekf` and `tc-ekf`.
 
+pub mod config;
+
+pub use config::EkfConfig;
+
 use nalgebra::{DMatrix, DVector};
 
 /// IGG3 equivalent-weight factor p̄/p of eq. 22 for a normalised residual `u`

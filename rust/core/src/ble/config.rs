@@ -37,6 +37,10 @@ pub struct BleConfig {
     pub wcentroid: WeightedCentroidConfig,
     /// Beacon calibration from survey logs (`fpbp calibrate`).
     pub calibration: CalibrationConfig,
+    /// Estimate the phone's RSSI bias (`ble::rssi_bias`, prior 6 dB, random
+    /// walk 0.01 dB^2/s, 5 dB per residual) from the residuals at each BLE fix
+    /// and subtract it before positioning (GML, fpbp, baselines). Default false.
+    pub estimate_rssi_bias: bool,
 }
 
 impl Default for BleConfig {
@@ -54,6 +58,7 @@ impl Default for BleConfig {
             ml: MlConfig::default(),
             wcentroid: WeightedCentroidConfig::default(),
             calibration: CalibrationConfig::default(),
+            estimate_rssi_bias: false,
         }
     }
 }

@@ -34,6 +34,8 @@ pub struct BleTask {
     mean: MeanFilter,
     grids: BTreeMap<i32, Vec<Vec2>>,
     last: Option<BleFix>,
+    /// RSSI-bias estimate when `estimate_rssi_bias` is on.
+    bias: Option<super::rssi_bias::RssiBiasEstimator>,
     /// Runs that produced no position.
     pub no_fix: u64,
 }
@@ -65,6 +67,9 @@ impl BleTask {
             mean: MeanFilter::new(cfg.mean_window_n, cfg.mean_reset_s),
             grids,
             last: None,
+            bias: cfg
+                .estimate_rssi_bias
+                .then(|| super::rssi_bias::RssiBiasEstimator::new(6.0, 0.01, 5.0)),
             no_fix: 0,
         }
     }
@@ -105,10 +110,23 @@ impl BleTask {
         }
         let prev = prev.or(same_floor_last.map(|l| l.pos));
         let grid: &[Vec2] = self.grids.get(&floor).map(|g| g.as_slice()).unwrap_or(&[]);
-        let Some(raw) = self.positioner.locate(&beacons, grid, prev) else {
+        let corrected: Vec<FilteredBeacon> = match &self.bias {
+            Some(b) => beacons
+                .iter()
+                .map(|f| FilteredBeacon {
+                    rssi_dbm: f.rssi_dbm - b.bias_db(),
+                    ..*f
+                })
+                .collect(),
+            None => beacons.clone(),
+        };
+        let Some(raw) = self.positioner.locate(&corrected, grid, prev) else {
             self.no_fix += 1;
             return None;
         };
+        if let Some(b) = self.bias.as_mut() {
+            b.update_at(t_ns, raw, &beacons, self.cfg.min_distance_m);
+        }
         let pos = self.mean.push(t_ns, raw);
         if !(pos.x.is_finite() && pos.y.is_finite()) {
             self.mean.clear();

@@ -44,6 +44,10 @@ pub struct BleConfig {
     /// NLOS identification (PPSA eqs. 1-10) and its use by the BLE-only
     /// positioners (`nlos.gml_mode`, default off).
     pub nlos: super::nlos::NlosConfig,
+    /// Estimate the phone's RSSI bias (`ble::rssi_bias`, prior 6 dB, random
+    /// walk 0.01 dB^2/s, 5 dB per residual) from the residuals at each BLE fix
+    /// and subtract it before positioning (GML, fpbp, baselines). Default false.
+    pub estimate_rssi_bias: bool,
 }
 
 impl Default for BleConfig {
@@ -63,6 +67,7 @@ impl Default for BleConfig {
             wcentroid: WeightedCentroidConfig::default(),
             calibration: CalibrationConfig::default(),
             nlos: super::nlos::NlosConfig::default(),
+            estimate_rssi_bias: false,
         }
     }
 }

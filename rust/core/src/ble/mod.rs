@@ -24,6 +24,7 @@ pub mod pathloss;
 pub mod positioner;
 pub mod proximity;
 pub mod registry;
+pub mod rssi_bias;
 pub mod task;
 
 pub use beacon_id::{BeaconId, normalize_beacon_id};

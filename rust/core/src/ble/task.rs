@@ -35,6 +35,8 @@ pub struct BleTask {
     last: Option<BleFix>,
     /// NLOS identification, when `ble.nlos.gml_mode` is not `off`.
     nlos: Option<super::nlos::NlosIdentifier>,
+    /// RSSI-bias estimate when `estimate_rssi_bias` is on.
+    bias: Option<super::rssi_bias::RssiBiasEstimator>,
     /// Runs that produced no position.
     pub no_fix: u64,
 }
@@ -68,6 +70,9 @@ impl BleTask {
             last: None,
             nlos: (cfg.nlos.gml_mode != super::nlos::NlosGmlMode::Off)
                 .then(|| super::nlos::NlosIdentifier::new(&cfg.nlos, cfg.min_distance_m)),
+            bias: cfg
+                .estimate_rssi_bias
+                .then(|| super::rssi_bias::RssiBiasEstimator::new(6.0, 0.01, 5.0)),
             no_fix: 0,
         }
     }
@@ -108,15 +113,29 @@ impl BleTask {
         }
         let prev = prev.or(same_floor_last.map(|l| l.pos));
         let grid: &[Vec2] = self.grids.get(&floor).map(|g| g.as_slice()).unwrap_or(&[]);
-        // NLOS identification against the previous position (ble.nlos.gml_mode)
-        let beacons = match (&self.nlos, prev) {
-            (Some(id), Some(p)) => id.apply_to_set(&beacons, p).0,
-            _ => beacons,
+        // RSSI-bias correction (ble.estimate_rssi_bias), then NLOS identification
+        // against the previous position (ble.nlos.gml_mode)
+        let corrected: Vec<FilteredBeacon> = match &self.bias {
+            Some(b) => beacons
+                .iter()
+                .map(|f| FilteredBeacon {
+                    rssi_dbm: f.rssi_dbm - b.bias_db(),
+                    ..*f
+                })
+                .collect(),
+            None => beacons.clone(),
         };
-        let Some(raw) = self.positioner.locate(&beacons, grid, prev) else {
+        let corrected = match (&self.nlos, prev) {
+            (Some(id), Some(p)) => id.apply_to_set(&corrected, p).0,
+            _ => corrected,
+        };
+        let Some(raw) = self.positioner.locate(&corrected, grid, prev) else {
             self.no_fix += 1;
             return None;
         };
+        if let Some(b) = self.bias.as_mut() {
+            b.update_at(t_ns, raw, &beacons, self.cfg.min_distance_m);
+        }
         let pos = self.mean.push(t_ns, raw);
         if !(pos.x.is_finite() && pos.y.is_finite()) {
             self.mean.clear();

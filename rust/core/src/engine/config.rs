@@ -37,6 +37,8 @@ pub struct EngineConfig {
     pub prox_pf: crate::engines::prox_pf::ProxPfConfig,
     /// Engine `ppsa` (PPSA paper).
     pub ppsa: crate::engines::ppsa::PpsaConfig,
+    /// The EKF engines (`robust-ekf`, `tc-ekf`) and the floor tracker.
+    pub ekf: crate::kalman::EkfConfig,
 }
 
 impl Default for EngineConfig {
@@ -49,6 +51,7 @@ impl Default for EngineConfig {
             fusion: FusionConfig::default(),
             prox_pf: Default::default(),
             ppsa: Default::default(),
+            ekf: crate::kalman::EkfConfig::default(),
         }
     }
 }
@@ -81,6 +84,7 @@ impl EngineConfig {
         self.ble.validate()?;
         self.prox_pf.validate()?;
         self.ppsa.validate()?;
+        self.ekf.validate()?;
         self.fusion.validate()
     }
 }

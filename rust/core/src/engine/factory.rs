@@ -17,6 +17,8 @@ pub const ENGINE_NAMES: &[&str] = &[
     "wcentroid",
     "prox-pf",
     "ppsa",
+    "robust-ekf",
+    "tc-ekf",
 ];
 
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
@@ -47,6 +49,12 @@ pub fn build_engine(
             site, config, init,
         )?)),
         "ppsa" => Ok(Box::new(crate::engines::ppsa::PpsaEngine::new(
+            site, config, init,
+        )?)),
+        "robust-ekf" => Ok(Box::new(crate::engines::robust_ekf::RobustEkfEngine::new(
+            site, config, init,
+        )?)),
+        "tc-ekf" => Ok(Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
             site, config, init,
         )?)),
         _ => Err(Error::UnknownEngine(

@@ -5,3 +5,5 @@ pub mod fpbp;
 pub mod pdr;
 pub mod ppsa;
 pub mod prox_pf;
+pub mod robust_ekf;
+pub mod tc_ekf;

@@ -1,0 +1,609 @@
+//! Engine `robust-ekf` (BMW paper): BLE fingerprinting (sub-databases by
+//! affinity propagation + WKNN), PDR speed and heading, and an EKF with state
+//! [x, y, v, phi] (eqs. 20-21, in the MCS instead of east/north) whose gain
+//! uses IGG3 equivalent weights (eqs. 22-24); floors from the barometric
+//! floor tracker (eqs. 25-26, Table 2).
+//!
+//! Tasks: the Fusion task predicts (eq. 20) and updates with the PDR speed
+//! and heading of the steps since the last run (speed 0 when none); the BLE
+//! task updates the position with the WKNN fix. Step length is the PDR's
+//! C * (Amax - Amin)^(1/4) with C = `pdr.step_length_beta`.
+//!
+//! The fingerprint database is built from the site's path-loss models at
+//! walkable grid points (eq. 6 applied to every point: no survey logs are
+//! shipped with the sites), clustered lazily the first time a floor is used.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::Result;
+use crate::Vec2;
+use crate::ble::grid::rect_grid;
+use crate::ble::{BleConfig, BleFrontEnd};
+use crate::engine::Task as T;
+use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::events::{BleObservation, SensorData, SensorEvent};
+use crate::fingerprint::db::DbBeacon;
+use crate::fingerprint::{FingerprintConfig, FingerprintDb, SubDatabases, wknn};
+use crate::floor::FloorTracker;
+use crate::kalman::{EkfConfig, robust_update, wrap_pi};
+use crate::map::FloorMap;
+use crate::pdr::Pdr;
+use crate::site::Site;
+
+/// Without a step for this long the walker is standing (speed 0), s.
+const STILL_AFTER_S: f64 = 1.5;
+
+/// After this many consecutive fingerprint fixes rejected by IGG3 the
+/// filter restarts at the fix (the robust gain would otherwise lock out a
+/// filter that has drifted away).
+const MAX_REJECTED_FIXES: u32 = 5;
+
+/// One floor's database and its sub-databases.
+struct FloorDb {
+    db: FingerprintDb,
+    sub: SubDatabases,
+}
+
+/// Builds the model fingerprint database of `floor` (None without beacons or walkable points).
+pub fn floor_database(
+    site: &Site,
+    front: &BleFrontEnd,
+    ble: &BleConfig,
+    cfg: &FingerprintConfig,
+    floor: i32,
+) -> Option<FingerprintDb> {
+    let map = site.floor(floor)?;
+    let beacons: Vec<DbBeacon> = front
+        .registry()
+        .beacons()
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| b.floor == floor)
+        .map(|(i, b)| DbBeacon {
+            registry_index: i,
+            pos: b.pos,
+            dz_m: b.z_m - ble.phone_height_m,
+            model: b.model,
+        })
+        .collect();
+    if beacons.is_empty() {
+        return None;
+    }
+    let mut step = cfg.grid_step_m;
+    let mut grid = walkable_grid(map, step);
+    while grid.len() > cfg.max_points_per_floor {
+        step *= 1.25;
+        grid = walkable_grid(map, step);
+    }
+    if grid.is_empty() {
+        return None;
+    }
+    Some(FingerprintDb::from_model(
+        beacons,
+        &grid,
+        cfg.missing_rssi_dbm,
+        ble.min_distance_m,
+    ))
+}
+
+/// The robust EKF engine.
+pub struct RobustEkfEngine {
+    site: Arc<Site>,
+    ble_cfg: BleConfig,
+    cfg: EkfConfig,
+    front: BleFrontEnd,
+    pdr: Pdr,
+    floors: FloorTracker,
+    has_pressure: bool,
+    dbs: BTreeMap<i32, Option<FloorDb>>,
+    x: DVector<f64>,
+    p: DMatrix<f64>,
+    initialised: bool,
+    floor: i32,
+    last_predict_t_ns: Option<i64>,
+    last_step_t_ns: Option<i64>,
+    /// Consecutive fingerprint fixes IGG3 gave weight 0.
+    rejected_fixes: u32,
+    last_fix: Option<Pose>,
+    pose: Option<Pose>,
+    ble_period_ns: i64,
+    fusion_period_ns: i64,
+    stats: EngineStats,
+}
+
+impl RobustEkfEngine {
+    /// Builds the engine; `init` (optional) seeds position, floor and heading.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        config.validate()?;
+        let front = BleFrontEnd::new(&config.ble, &site);
+        let start_floor = init.map_or(site.default_floor(), |i| i.floor);
+        let floors = FloorTracker::for_site(&config.ekf.floor, &site, start_floor);
+        let mut x = DVector::zeros(4);
+        let mut p = DMatrix::identity(4, 4) * 100.0;
+        let mut initialised = false;
+        if let Some(i) = init.filter(|i| i.x_m.is_finite() && i.y_m.is_finite()) {
+            x[0] = i.x_m;
+            x[1] = i.y_m;
+            x[3] = i.heading_rad.filter(|h| h.is_finite()).unwrap_or(0.0);
+            p[(0, 0)] = 1.0;
+            p[(1, 1)] = 1.0;
+            p[(3, 3)] = if i.heading_rad.is_some() { 0.1 } else { 10.0 };
+            initialised = true;
+        }
+        p[(2, 2)] = 1.0;
+        Ok(RobustEkfEngine {
+            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            ble_cfg: config.ble.clone(),
+            cfg: config.ekf.clone(),
+            front,
+            floors,
+            has_pressure: false,
+            dbs: BTreeMap::new(),
+            x,
+            p,
+            initialised,
+            floor: start_floor,
+            last_predict_t_ns: None,
+            last_step_t_ns: None,
+            rejected_fixes: 0,
+            last_fix: None,
+            pose: None,
+            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            stats: EngineStats::default(),
+            site,
+        })
+    }
+
+    /// The last WKNN fix (x_B).
+    fn fingerprint_fix(&mut self, t_ns: i64) -> Option<(i32, Vec2)> {
+        let beacons = self.front.current(t_ns);
+        let ble_floor = BleFrontEnd::likely_floor(&beacons, self.ble_cfg.gml.top_n)?;
+        if !self.initialised {
+            // the start floor comes from BLE; the barometer tracks changes from there
+            self.floors.reset_to_floor(ble_floor);
+        }
+        // floors: barometer when the log has one, else the BLE floor
+        let floor = if self.has_pressure && self.initialised {
+            self.floors.floor().unwrap_or(ble_floor)
+        } else {
+            ble_floor
+        };
+        let fcfg = self.cfg.fingerprint.clone();
+        let entry = self.dbs.entry(floor).or_insert_with(|| {
+            floor_database(&self.site, &self.front, &self.ble_cfg, &fcfg, floor).map(|db| {
+                let vecs: Vec<Vec<f64>> = db.points.iter().map(|p| p.rssi_dbm.clone()).collect();
+                let sub = SubDatabases::build(
+                    &vecs,
+                    fcfg.ap_damping,
+                    fcfg.ap_iterations,
+                    fcfg.density_k,
+                    fcfg.outlier_relative_density,
+                );
+                FloorDb { db, sub }
+            })
+        });
+        let fdb = entry.as_ref()?;
+        // the strongest heard beacons (current() is sorted strongest first)
+        let heard: BTreeMap<usize, f64> = beacons
+            .iter()
+            .take(fcfg.scan_max_beacons)
+            .map(|b| (b.index, b.rssi_dbm))
+            .collect();
+        let scan = fdb.db.scan_vector(|i| heard.get(&i).copied());
+        if scan.iter().all(|r| r.is_nan()) {
+            return None;
+        }
+        let clusters = fdb.sub.best(&scan, fcfg.search_clusters);
+        let cands: Vec<usize> = clusters
+            .iter()
+            .flat_map(|c| fdb.sub.members[*c].iter().copied())
+            .collect();
+        wknn(&fdb.db, &cands, &scan, fcfg.wknn_k).map(|p| (floor, p))
+    }
+
+    fn predict(&mut self, t_ns: i64) {
+        let dt = match self.last_predict_t_ns {
+            Some(t0) if t_ns > t0 => (t_ns - t0) as f64 * 1e-9,
+            Some(_) => return,
+            None => {
+                self.last_predict_t_ns = Some(t_ns);
+                return;
+            }
+        };
+        self.last_predict_t_ns = Some(t_ns);
+        let (v, phi) = (self.x[2], self.x[3]);
+        let (s, c) = phi.sin_cos();
+        let mut f = DMatrix::identity(4, 4);
+        f[(0, 2)] = dt * c;
+        f[(0, 3)] = -v * dt * s;
+        f[(1, 2)] = dt * s;
+        f[(1, 3)] = v * dt * c;
+        self.x[0] += v * dt * c;
+        self.x[1] += v * dt * s;
+        let mut q = DMatrix::zeros(4, 4);
+        q[(0, 0)] = self.cfg.q_pos_m2_per_s * dt;
+        q[(1, 1)] = self.cfg.q_pos_m2_per_s * dt;
+        q[(2, 2)] = self.cfg.q_speed_m2_per_s3 * dt;
+        q[(3, 3)] = self.cfg.q_heading_rad2_per_s * dt;
+        self.p = &f * &self.p * f.transpose() + q;
+    }
+
+    fn update(&mut self, rows: &[(usize, f64, f64)]) -> Option<crate::kalman::UpdateReport> {
+        let n = rows.len();
+        let mut h = DMatrix::zeros(n, 4);
+        let mut v = DVector::zeros(n);
+        let mut r = DVector::zeros(n);
+        for (k, &(idx, z, var)) in rows.iter().enumerate() {
+            h[(k, idx)] = 1.0;
+            v[k] = if idx == 3 {
+                wrap_pi(z - self.x[3])
+            } else {
+                z - self.x[idx]
+            };
+            r[k] = var;
+        }
+        let k = Some((self.cfg.igg3_k0, self.cfg.igg3_k1));
+        let rep = robust_update(&mut self.x, &mut self.p, &v, &h, &r, k);
+        if rep.is_err() {
+            self.stats.rejected_inputs += 1;
+        }
+        self.x[3] = wrap_pi(self.x[3]);
+        self.x[2] = self.x[2].clamp(0.0, 3.0);
+        rep.ok()
+    }
+
+    fn publish(&mut self, t_ns: i64) {
+        if !self.initialised {
+            return;
+        }
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: self.x[0],
+            y_m: self.x[1],
+            floor: self.floor,
+            heading_rad: self.x[3],
+            accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
+        });
+    }
+}
+
+impl Engine for RobustEkfEngine {
+    fn name(&self) -> &'static str {
+        "robust-ekf"
+    }
+
+    fn on_sensor(&mut self, event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+        if let SensorData::Pressure(p) = event.data {
+            let before = self.floors.rejected;
+            self.floors.on_pressure(event.t_ns, p);
+            if self.floors.rejected == before {
+                self.has_pressure = true;
+            }
+        }
+        self.pdr.on_sensor(event);
+    }
+
+    fn on_ble(&mut self, obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+        self.front.on_observation(obs);
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        match task {
+            T::Ble => {
+                let Some((floor, pos)) = self.fingerprint_fix(t_ns) else {
+                    self.stats.no_fix += 1;
+                    return;
+                };
+                self.last_fix = Some(Pose {
+                    t_ns,
+                    x_m: pos.x,
+                    y_m: pos.y,
+                    floor,
+                    heading_rad: self.x[3],
+                    accuracy_m: self.cfg.fingerprint_sigma_m,
+                });
+                if !self.initialised
+                    || floor != self.floor
+                    || self.rejected_fixes >= MAX_REJECTED_FIXES
+                {
+                    self.rejected_fixes = 0;
+                    // first fix or floor change: restart the position there
+                    self.x[0] = pos.x;
+                    self.x[1] = pos.y;
+                    self.p[(0, 0)] = self.cfg.fingerprint_sigma_m.powi(2);
+                    self.p[(1, 1)] = self.cfg.fingerprint_sigma_m.powi(2);
+                    self.p[(0, 1)] = 0.0;
+                    self.p[(1, 0)] = 0.0;
+                    self.initialised = true;
+                    self.floor = floor;
+                } else {
+                    self.predict(t_ns);
+                    let var = self.cfg.fingerprint_sigma_m.powi(2);
+                    let rep = self.update(&[(0, pos.x, var), (1, pos.y, var)]);
+                    if rep.is_some_and(|r| r.factors.iter().all(|f| *f == 0.0)) {
+                        self.rejected_fixes += 1;
+                    } else {
+                        self.rejected_fixes = 0;
+                    }
+                }
+                self.publish(t_ns);
+            }
+            T::Fusion => {
+                let steps = self.pdr.take_steps();
+                self.predict(t_ns);
+                let mut rows = Vec::new();
+                let still = self
+                    .last_step_t_ns
+                    .is_none_or(|t0| (t_ns - t0) as f64 * 1e-9 > STILL_AFTER_S);
+                if steps.is_empty() && still {
+                    rows.push((2, 0.0, self.cfg.speed_sigma_mps.powi(2)));
+                }
+                for s in &steps {
+                    // speed: this step's length over the time since the previous step
+                    if let Some(t0) = self.last_step_t_ns {
+                        let dt = (s.t_ns - t0) as f64 * 1e-9;
+                        if dt > 0.2 && dt < STILL_AFTER_S {
+                            rows.push((2, s.length_m / dt, self.cfg.speed_sigma_mps.powi(2)));
+                        }
+                    }
+                    self.last_step_t_ns = Some(s.t_ns);
+                    rows.push((3, s.yaw_rad, self.cfg.heading_sigma_rad.powi(2)));
+                    self.floors.on_step(true);
+                    self.stats.steps += 1;
+                }
+                if self.has_pressure
+                    && let Some(f) = self.floors.floor()
+                {
+                    self.floor = f;
+                }
+                self.update(&rows);
+                self.publish(t_ns);
+            }
+        }
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        Some(match task {
+            T::Ble => self.ble_period_ns,
+            T::Fusion => self.fusion_period_ns,
+        })
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        self.pose
+    }
+
+    fn ble_position(&self) -> Option<Pose> {
+        self.last_fix
+    }
+
+    fn stats(&self) -> EngineStats {
+        let c = self.front.counts();
+        let p = self.pdr.stats();
+        EngineStats {
+            unknown_beacons: c.unknown,
+            rejected_inputs: self.stats.rejected_inputs
+                + c.rejected
+                + self.floors.rejected
+                + p.skipped_accelerometer
+                + p.bad_quaternions,
+            ..self.stats.clone()
+        }
+    }
+}
+
+/// The walkable points of a rectangular grid over `map` at `interval_m`
+/// (the fingerprint reference points; coarser than the GML grid on large floors).
+fn walkable_grid(map: &FloorMap, interval_m: f64) -> Vec<Vec2> {
+    rect_grid(map.width_m(), map.height_m(), interval_m)
+        .into_iter()
+        .filter(|p| map.is_walkable(*p))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ble::pathloss::{PathLoss, range_m};
+    use crate::engine::build_engine;
+    use crate::engine::replay::replay;
+    use crate::events::{GnssFix, LogEvent, TruthPoint};
+    use crate::map::{Feature, FloorMap};
+    use crate::site::{BeaconSpec, FloorSpec, Legend, SiteSpec};
+
+    const MODEL: PathLoss = PathLoss {
+        rssi_1m_dbm: -59.0,
+        exponent: 2.0,
+    };
+    const BEACONS: [(f64, f64); 6] = [
+        (2.0, 2.0),
+        (18.0, 2.0),
+        (38.0, 2.0),
+        (2.0, 28.0),
+        (20.0, 28.0),
+        (38.0, 28.0),
+    ];
+
+    fn site() -> Arc<Site> {
+        let floor = |id: i32| FloorSpec {
+            id,
+            name: String::new(),
+            plan: None,
+            pixels_per_meter: None,
+            target_pixels_per_meter: None,
+            open_area_m: Some([40.0, 30.0]),
+            height_m: 4.0 * id as f64,
+        };
+        let spec = SiteSpec {
+            format: "fpbp-site".into(),
+            version: 1,
+            name: "test".into(),
+            map_from_enu_rad: 0.0,
+            legend: Legend::default(),
+            grid_interval_m: 1.0,
+            floors: vec![floor(0), floor(1)],
+            beacons: BEACONS
+                .iter()
+                .enumerate()
+                .map(|(i, &(x, y))| BeaconSpec {
+                    id: format!("mac:00:00:00:00:00:{i:02X}"),
+                    floor: 0,
+                    x_m: x,
+                    y_m: y,
+                    z_m: 1.2,
+                    rssi_1m_dbm: MODEL.rssi_1m_dbm,
+                    path_loss_exponent: MODEL.exponent,
+                })
+                .collect(),
+            georef: None,
+        };
+        let map = || FloorMap::from_features(40, 30, 1.0, vec![Feature::Walkable; 1200]);
+        Arc::new(Site {
+            spec,
+            floors: vec![map(), map()],
+        })
+    }
+
+    /// Adverts every 0.2 s (with `bias` dB added) along a slow walk east, truth every second.
+    fn walk(bias: f64, seconds: i64) -> Vec<LogEvent> {
+        walk_at(bias, seconds, 0.5)
+    }
+
+    fn walk_at(bias: f64, seconds: i64, speed_mps: f64) -> Vec<LogEvent> {
+        let mut ev = Vec::new();
+        for k in 0..seconds * 5 {
+            let t_ns = k * 200_000_000;
+            let p = Vec2::new(8.5 + 0.2 * speed_mps * k as f64, 12.5);
+            for (i, &(x, y)) in BEACONS.iter().enumerate() {
+                let r = MODEL.rssi_at(range_m(p, Vec2::new(x, y), 0.0, 0.5), 0.5);
+                ev.push(LogEvent::Ble(BleObservation {
+                    t_ns,
+                    beacon_id: format!("mac:00:00:00:00:00:{i:02X}"),
+                    rssi_dbm: r + bias,
+                    tx_power_dbm: None,
+                }));
+            }
+            if k % 5 == 0 {
+                ev.push(LogEvent::Truth(TruthPoint {
+                    t_ns,
+                    x_m: p.x,
+                    y_m: p.y,
+                    floor: Some(0),
+                }));
+            }
+        }
+        ev
+    }
+
+    fn mean_error(name: &str, ev: Vec<LogEvent>) -> (f64, usize) {
+        let mut e = build_engine(name, site(), &EngineConfig::default(), None).unwrap();
+        let out = replay(e.as_mut(), ev);
+        let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+        assert!(errs.iter().all(|e| e.is_finite()));
+        (
+            errs.iter().sum::<f64>() / errs.len().max(1) as f64,
+            errs.len(),
+        )
+    }
+
+    #[test]
+    fn both_engines_track_a_noise_free_walk() {
+        // no motion sensors in this log: tc-ekf (no PDR steps) lags the
+        // 0.5 m/s walker, robust-ekf follows its fingerprint fixes
+        for (name, limit) in [("robust-ekf", 3.0), ("tc-ekf", 6.0)] {
+            let (err, n) = mean_error(name, walk(0.0, 30));
+            assert!(n >= 25, "{name}: {n} scored");
+            assert!(err < limit, "{name}: mean error {err}");
+        }
+    }
+
+    #[test]
+    fn tc_ekf_estimates_an_injected_rssi_bias() {
+        let site = site();
+        let mut e =
+            crate::engines::tc_ekf::TcEkfEngine::new(site, &EngineConfig::default(), None).unwrap();
+        // a standing phone that reads 6 dB weaker than the calibrated models
+        replay(&mut e, walk_at(-6.0, 60, 0.0));
+        let (b, sd) = e.rssi_bias_db();
+        assert!(
+            (b + 6.0).abs() < 2.0 && sd < 3.0,
+            "bias {b} +- {sd} {:?} {:?}",
+            e.stats(),
+            e.pose()
+        );
+    }
+
+    #[test]
+    fn bad_input_is_counted_and_gives_no_nan_and_no_fix() {
+        for name in ["robust-ekf", "tc-ekf"] {
+            let mut e = build_engine(name, site(), &EngineConfig::default(), None).unwrap();
+            let mut ev = Vec::new();
+            for k in 0..20i64 {
+                let t_ns = k * 200_000_000;
+                ev.push(LogEvent::Ble(BleObservation {
+                    t_ns,
+                    beacon_id: "garbage".into(),
+                    rssi_dbm: f64::NAN,
+                    tx_power_dbm: None,
+                }));
+                ev.push(LogEvent::Sensor(SensorEvent {
+                    t_ns,
+                    data: SensorData::Pressure(f64::NAN),
+                }));
+                ev.push(LogEvent::Sensor(SensorEvent {
+                    t_ns,
+                    data: SensorData::Accelerometer([f64::NAN, 0.0, 1e300]),
+                }));
+                ev.push(LogEvent::Gnss(GnssFix {
+                    t_ns,
+                    lat_deg: f64::INFINITY,
+                    lon_deg: 0.0,
+                    alt_m: None,
+                    accuracy_m: Some(-1.0),
+                    speed_mps: None,
+                    bearing_deg: None,
+                }));
+            }
+            ev.push(LogEvent::Truth(TruthPoint {
+                t_ns: 3_000_000_000,
+                x_m: 1.0,
+                y_m: 1.0,
+                floor: Some(0),
+            }));
+            let out = replay(e.as_mut(), ev);
+            assert!(e.pose().is_none(), "{name}");
+            assert!(out.scored.iter().all(|s| s.error_m().is_none()), "{name}");
+            let st = e.stats();
+            assert!(
+                st.no_fix > 0 && st.unknown_beacons > 0 && st.rejected_inputs > 0,
+                "{name}: {st:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn deterministic() {
+        let a = {
+            let mut e = build_engine("robust-ekf", site(), &EngineConfig::default(), None).unwrap();
+            replay(e.as_mut(), walk(0.0, 10));
+            e.pose()
+        };
+        let b = {
+            let mut e = build_engine("robust-ekf", site(), &EngineConfig::default(), None).unwrap();
+            replay(e.as_mut(), walk(0.0, 10));
+            e.pose()
+        };
+        assert!(a.is_some());
+        assert_eq!(a, b);
+    }
+}

@@ -1,0 +1,371 @@
+//! Engine `tc-ekf` (TC paper): a tightly coupled EKF over
+//! [x, y, dS, dtheta, RSSI_b] (eqs. 2, 21; full state in the MCS rather than
+//! an error state): PDR steps propagate the position with step-length error
+//! dS and heading error dtheta; near beacons give proximity fixes (eq. 5);
+//! strong beacons give RSSI ranging with the bias-linearised path-loss model
+//! (eqs. 16-18, 22-25), the RSSI bias a random-walk state (eq. 19); GNSS fixes
+//! (converted with the site georef) update the position with the adaptive
+//! error estimate of eqs. 6-8 (GE fixed at each proximity fix, then carried by
+//! GNSS-minus-PDR displacement; before the first proximity fix the reported
+//! accuracy is used). Floors from the barometric floor tracker when the log
+//! has pressure, else the BLE likely floor. Not implemented: the BLE-heading
+//! walking direction of eqs. 9-11 (the PDR heading is used).
+
+use std::sync::Arc;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::Result;
+use crate::Vec2;
+use crate::ble::{BleConfig, BleFrontEnd};
+use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::events::{BleObservation, GnssFix, SensorData, SensorEvent};
+use crate::floor::FloorTracker;
+use crate::kalman::{EkfConfig, robust_update};
+use crate::pdr::Pdr;
+use crate::site::Site;
+
+const LN10: f64 = std::f64::consts::LN_10;
+
+/// The tightly coupled EKF engine.
+pub struct TcEkfEngine {
+    site: Arc<Site>,
+    ble_cfg: BleConfig,
+    cfg: EkfConfig,
+    front: BleFrontEnd,
+    pdr: Pdr,
+    floors: FloorTracker,
+    has_pressure: bool,
+    x: DVector<f64>,
+    p: DMatrix<f64>,
+    initialised: bool,
+    floor: i32,
+    last_t_ns: Option<i64>,
+    /// GE of eqs. 6-7 and the GNSS / PDR positions it was last carried from.
+    ge: Option<Vec2>,
+    last_gnss: Option<Vec2>,
+    pdr_since_gnss: Vec2,
+    pose: Option<Pose>,
+    ble_period_ns: i64,
+    fusion_period_ns: i64,
+    /// GNSS fixes used / dropped.
+    pub gnss_used: u64,
+    stats: EngineStats,
+}
+
+impl TcEkfEngine {
+    /// Builds the engine; `init` (optional) seeds position, floor and heading.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        config.validate()?;
+        let front = BleFrontEnd::new(&config.ble, &site);
+        let start_floor = init.map_or(site.default_floor(), |i| i.floor);
+        let floors = FloorTracker::for_site(&config.ekf.floor, &site, start_floor);
+        let mut x = DVector::zeros(5);
+        let mut p = DMatrix::zeros(5, 5);
+        p[(0, 0)] = 100.0;
+        p[(1, 1)] = 100.0;
+        p[(2, 2)] = 0.01;
+        p[(3, 3)] = 0.01;
+        p[(4, 4)] = config.ekf.bias_prior_sigma_db.powi(2);
+        let mut initialised = false;
+        if let Some(i) = init.filter(|i| i.x_m.is_finite() && i.y_m.is_finite()) {
+            x[0] = i.x_m;
+            x[1] = i.y_m;
+            p[(0, 0)] = 1.0;
+            p[(1, 1)] = 1.0;
+            initialised = true;
+        }
+        Ok(TcEkfEngine {
+            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            ble_cfg: config.ble.clone(),
+            cfg: config.ekf.clone(),
+            front,
+            floors,
+            has_pressure: false,
+            x,
+            p,
+            initialised,
+            floor: start_floor,
+            last_t_ns: None,
+            ge: None,
+            last_gnss: None,
+            pdr_since_gnss: Vec2::zeros(),
+            pose: None,
+            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            gnss_used: 0,
+            stats: EngineStats::default(),
+            site,
+        })
+    }
+
+    /// The current RSSI bias estimate RSSI_b (measured minus model), dB, and its sigma.
+    pub fn rssi_bias_db(&self) -> (f64, f64) {
+        (self.x[4], self.p[(4, 4)].max(0.0).sqrt())
+    }
+
+    fn add_process_noise(&mut self, t_ns: i64) {
+        let dt = match self.last_t_ns {
+            Some(t0) if t_ns > t0 => (t_ns - t0) as f64 * 1e-9,
+            _ => 0.0,
+        };
+        if self.last_t_ns.is_none_or(|t0| t_ns > t0) {
+            self.last_t_ns = Some(t_ns);
+        }
+        self.p[(2, 2)] += self.cfg.q_step_length_m2_per_s * dt;
+        self.p[(3, 3)] += self.cfg.q_heading_error_rad2_per_s * dt;
+        self.p[(4, 4)] += self.cfg.q_bias_db2_per_s * dt;
+        self.p[(0, 0)] += 0.01 * dt;
+        self.p[(1, 1)] += 0.01 * dt;
+    }
+
+    fn step(&mut self, length_m: f64, yaw_rad: f64) {
+        let (l, th) = (length_m + self.x[2], yaw_rad + self.x[3]);
+        let (s, c) = th.sin_cos();
+        let mut f = DMatrix::identity(5, 5);
+        f[(0, 2)] = c;
+        f[(0, 3)] = -l * s;
+        f[(1, 2)] = s;
+        f[(1, 3)] = l * c;
+        self.x[0] += l * c;
+        self.x[1] += l * s;
+        self.pdr_since_gnss += Vec2::new(l * c, l * s);
+        let mut q = DMatrix::zeros(5, 5);
+        // per-step position noise: 5 % of the step
+        q[(0, 0)] = (0.05 * length_m).powi(2);
+        q[(1, 1)] = (0.05 * length_m).powi(2);
+        self.p = &f * &self.p * f.transpose() + q;
+    }
+
+    fn position_update(&mut self, z: Vec2, var_x: f64, var_y: f64, robust: bool) -> bool {
+        let mut h = DMatrix::zeros(2, 5);
+        h[(0, 0)] = 1.0;
+        h[(1, 1)] = 1.0;
+        let v = DVector::from_vec(vec![z.x - self.x[0], z.y - self.x[1]]);
+        let r = DVector::from_vec(vec![var_x, var_y]);
+        let k = robust.then_some((self.cfg.igg3_k0, self.cfg.igg3_k1));
+        robust_update(&mut self.x, &mut self.p, &v, &h, &r, k).is_ok()
+    }
+
+    fn ble_update(&mut self, t_ns: i64) -> bool {
+        let all = self.front.current(t_ns);
+        let Some(ble_floor) = BleFrontEnd::likely_floor(&all, self.ble_cfg.gml.top_n) else {
+            return false;
+        };
+        if !self.initialised {
+            self.floors.reset_to_floor(ble_floor);
+        }
+        let floor = if self.has_pressure && self.initialised {
+            self.floors.floor().unwrap_or(ble_floor)
+        } else {
+            ble_floor
+        };
+        let beacons: Vec<_> = all.into_iter().filter(|b| b.floor == floor).collect();
+        if beacons.is_empty() {
+            return false;
+        }
+        if !self.initialised || floor != self.floor {
+            // weighted centroid of the strongest three as the start
+            let top = &beacons[..beacons.len().min(3)];
+            let w: Vec<f64> = top.iter().map(|b| 10f64.powf(b.rssi_dbm / 20.0)).collect();
+            let ws: f64 = w.iter().sum();
+            let c = top
+                .iter()
+                .zip(&w)
+                .fold(Vec2::zeros(), |a, (b, w)| a + b.pos * *w)
+                / ws;
+            self.x[0] = c.x;
+            self.x[1] = c.y;
+            self.p[(0, 0)] = 25.0;
+            self.p[(1, 1)] = 25.0;
+            self.p[(0, 1)] = 0.0;
+            self.p[(1, 0)] = 0.0;
+            self.initialised = true;
+            self.floor = floor;
+        }
+        // proximity (eq. 5): the strongest beacon when it is near
+        let strongest = beacons[0];
+        if strongest.rssi_dbm - self.x[4] >= self.cfg.proximity_rssi_dbm {
+            let var = self.cfg.proximity_sigma_m.powi(2);
+            if self.position_update(strongest.pos, var, var, true) {
+                // eqs. 6: GE fixed at this instant
+                if let Some(g) = self.last_gnss {
+                    self.ge = Some(g - Vec2::new(self.x[0], self.x[1]));
+                    self.pdr_since_gnss = Vec2::zeros();
+                }
+            }
+        }
+        // ranging (eqs. 16-18, 22-25): z = RSSI, h = R0 - 10 n log10(d) + b
+        let ranged: Vec<_> = beacons
+            .iter()
+            .filter(|b| b.rssi_dbm >= self.cfg.ranging_rssi_dbm)
+            .take(self.cfg.ranging_max_beacons)
+            .collect();
+        let m = ranged.len();
+        if m > 0 {
+            let mut h = DMatrix::zeros(m, 5);
+            let mut v = DVector::zeros(m);
+            let mut r = DVector::zeros(m);
+            let pos = Vec2::new(self.x[0], self.x[1]);
+            for (k, b) in ranged.iter().enumerate() {
+                let dxy = pos - b.pos;
+                let d2 = dxy.norm_squared() + b.dz_m * b.dz_m;
+                let d = d2.sqrt().max(self.ble_cfg.min_distance_m);
+                let pred = b.model.rssi_at(d, self.ble_cfg.min_distance_m) + self.x[4];
+                let g = -10.0 * b.model.exponent / (LN10 * d.max(1e-6).powi(2));
+                h[(k, 0)] = g * dxy.x;
+                h[(k, 1)] = g * dxy.y;
+                h[(k, 4)] = 1.0;
+                v[k] = b.rssi_dbm - pred;
+                r[k] = self.cfg.ranging_sigma_db.powi(2);
+            }
+            let k = Some((self.cfg.igg3_k0, self.cfg.igg3_k1));
+            if robust_update(&mut self.x, &mut self.p, &v, &h, &r, k).is_err() {
+                self.stats.rejected_inputs += 1;
+            }
+        }
+        true
+    }
+
+    fn publish(&mut self, t_ns: i64, heading_rad: f64) {
+        if !self.initialised {
+            return;
+        }
+        if !(self.x.iter().all(|v| v.is_finite())) {
+            // never publish NaN: restart from the last pose
+            self.initialised = false;
+            return;
+        }
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: self.x[0],
+            y_m: self.x[1],
+            floor: self.floor,
+            heading_rad,
+            accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
+        });
+    }
+}
+
+impl Engine for TcEkfEngine {
+    fn name(&self) -> &'static str {
+        "tc-ekf"
+    }
+
+    fn on_sensor(&mut self, event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+        if let SensorData::Pressure(p) = event.data {
+            let before = self.floors.rejected;
+            self.floors.on_pressure(event.t_ns, p);
+            if self.floors.rejected == before {
+                self.has_pressure = true;
+            }
+        }
+        self.pdr.on_sensor(event);
+    }
+
+    fn on_ble(&mut self, obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+        self.front.on_observation(obs);
+    }
+
+    fn on_gnss(&mut self, fix: &GnssFix) {
+        let Some(georef) = self.site.spec.georef.as_ref() else {
+            return;
+        };
+        if !(fix.lat_deg.is_finite() && fix.lon_deg.is_finite())
+            || fix.lat_deg.abs() > 90.0
+            || fix.lon_deg.abs() > 180.0
+        {
+            self.stats.rejected_inputs += 1;
+            return;
+        }
+        let acc = fix
+            .accuracy_m
+            .filter(|a| a.is_finite() && *a > 0.0)
+            .unwrap_or(10.0);
+        let z = crate::geo::mcs_from_wgs84(
+            georef,
+            self.site.spec.map_from_enu_rad,
+            fix.lat_deg,
+            fix.lon_deg,
+        );
+        // eq. 7: carry GE by GNSS minus PDR displacement
+        if let (Some(ge), Some(prev)) = (self.ge, self.last_gnss) {
+            self.ge = Some(ge + (z - prev) - self.pdr_since_gnss);
+        }
+        self.last_gnss = Some(z);
+        self.pdr_since_gnss = Vec2::zeros();
+        if !self.initialised || acc > self.cfg.gnss_max_accuracy_m {
+            return;
+        }
+        // eq. 8, floored at 1 m; the reported accuracy before the first proximity fix
+        let (vx, vy) = match self.ge {
+            Some(ge) => (ge.x.abs().max(1.0).powi(2), ge.y.abs().max(1.0).powi(2)),
+            None => (acc * acc, acc * acc),
+        };
+        if self.position_update(z, vx, vy, true) {
+            self.gnss_used += 1;
+        }
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        self.add_process_noise(t_ns);
+        match task {
+            Task::Ble => {
+                if !self.ble_update(t_ns) {
+                    self.stats.no_fix += 1;
+                }
+                let h = self.pose.map_or(0.0, |p| p.heading_rad);
+                self.publish(t_ns, h);
+            }
+            Task::Fusion => {
+                let mut heading = self.pose.map_or(0.0, |p| p.heading_rad);
+                for s in self.pdr.take_steps() {
+                    self.stats.steps += 1;
+                    self.floors.on_step(true);
+                    if self.initialised {
+                        self.step(s.length_m, s.yaw_rad);
+                    }
+                    heading = s.yaw_rad + self.x[3];
+                }
+                if self.has_pressure
+                    && self.initialised
+                    && let Some(f) = self.floors.floor()
+                {
+                    self.floor = f;
+                }
+                self.publish(t_ns, heading);
+            }
+        }
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        Some(match task {
+            Task::Ble => self.ble_period_ns,
+            Task::Fusion => self.fusion_period_ns,
+        })
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        self.pose
+    }
+
+    fn stats(&self) -> EngineStats {
+        let c = self.front.counts();
+        let p = self.pdr.stats();
+        EngineStats {
+            unknown_beacons: c.unknown,
+            rejected_inputs: self.stats.rejected_inputs
+                + c.rejected
+                + self.floors.rejected
+                + p.skipped_accelerometer
+                + p.bad_quaternions,
+            ..self.stats.clone()
+        }
+    }
+}

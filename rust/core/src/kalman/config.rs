@@ -1,0 +1,127 @@
+//! Configuration of the EKF engines (`ekf` in the engine config).
+
+use serde::{Deserialize, Serialize};
+
+use crate::fingerprint::FingerprintConfig;
+use crate::floor::FloorConfig;
+use crate::{Error, Result};
+
+/// Parameters of `robust-ekf` and `tc-ekf`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct EkfConfig {
+    /// Barometric floor tracker.
+    pub floor: FloorConfig,
+    /// Fingerprint database, clustering and WKNN (robust-ekf).
+    pub fingerprint: FingerprintConfig,
+    /// IGG3 k0 of eq. 22 (paper: [1, 1.5]). Default 1.5.
+    pub igg3_k0: f64,
+    /// IGG3 k1 of eq. 22 (paper: [2.5, 3]). Default 3.0.
+    pub igg3_k1: f64,
+    /// Process noise of position per second, m^2/s. Default 0.5.
+    pub q_pos_m2_per_s: f64,
+    /// Process noise of speed per second, (m/s)^2/s. Default 0.5.
+    pub q_speed_m2_per_s3: f64,
+    /// Process noise of heading per second, rad^2/s. Default 0.05.
+    pub q_heading_rad2_per_s: f64,
+    /// Standard deviation of a fingerprint (WKNN) position, metres. Default 3.0.
+    pub fingerprint_sigma_m: f64,
+    /// Standard deviation of the PDR speed, m/s. Default 0.2.
+    pub speed_sigma_mps: f64,
+    /// Standard deviation of the PDR heading, rad. Default 0.15.
+    pub heading_sigma_rad: f64,
+    /// tc-ekf: beacons at or above this filtered RSSI give a proximity fix (eq. 5), dBm. Default -62.
+    pub proximity_rssi_dbm: f64,
+    /// tc-ekf: standard deviation of a proximity fix, metres. Default 2.0.
+    pub proximity_sigma_m: f64,
+    /// tc-ekf: beacons at or above this filtered RSSI are ranged (eqs. 16-18), dBm. Default -85.
+    pub ranging_rssi_dbm: f64,
+    /// tc-ekf: most beacons ranged per BLE task. Default 6.
+    pub ranging_max_beacons: usize,
+    /// tc-ekf: standard deviation of a ranging RSSI, dB. Default 5.0.
+    pub ranging_sigma_db: f64,
+    /// tc-ekf: random walk of the RSSI bias (eq. 19), dB^2/s. Default 0.01.
+    pub q_bias_db2_per_s: f64,
+    /// tc-ekf: prior standard deviation of the RSSI bias, dB. Default 6.0.
+    pub bias_prior_sigma_db: f64,
+    /// tc-ekf: process noise of the step-length error, m^2/s. Default 0.0005.
+    pub q_step_length_m2_per_s: f64,
+    /// tc-ekf: process noise of the heading error, rad^2/s. Default 0.002.
+    pub q_heading_error_rad2_per_s: f64,
+    /// tc-ekf: window of the adaptive GNSS error estimate (eqs. 6-8), fixes. Default 10.
+    pub gnss_window: usize,
+    /// tc-ekf: GNSS fixes with a reported accuracy above this are dropped, metres. Default 30.
+    pub gnss_max_accuracy_m: f64,
+}
+
+impl Default for EkfConfig {
+    fn default() -> Self {
+        EkfConfig {
+            floor: FloorConfig::default(),
+            fingerprint: FingerprintConfig::default(),
+            igg3_k0: 1.5,
+            igg3_k1: 3.0,
+            q_pos_m2_per_s: 0.5,
+            q_speed_m2_per_s3: 0.5,
+            q_heading_rad2_per_s: 0.05,
+            fingerprint_sigma_m: 3.0,
+            speed_sigma_mps: 0.2,
+            heading_sigma_rad: 0.15,
+            proximity_rssi_dbm: -62.0,
+            proximity_sigma_m: 2.0,
+            ranging_rssi_dbm: -90.0,
+            ranging_max_beacons: 6,
+            ranging_sigma_db: 5.0,
+            q_bias_db2_per_s: 0.01,
+            bias_prior_sigma_db: 6.0,
+            q_step_length_m2_per_s: 0.0005,
+            q_heading_error_rad2_per_s: 0.002,
+            gnss_window: 10,
+            gnss_max_accuracy_m: 30.0,
+        }
+    }
+}
+
+impl EkfConfig {
+    /// Checks every field's range, naming the bad one.
+    pub fn validate(&self) -> Result<()> {
+        self.floor.validate()?;
+        self.fingerprint.validate()?;
+        if !(self.igg3_k0 > 0.0 && self.igg3_k1 > self.igg3_k0 && self.igg3_k1.is_finite()) {
+            return Err(Error::config("ekf.igg3_k1", "need 0 < igg3_k0 < igg3_k1"));
+        }
+        let pos = [
+            ("q_pos_m2_per_s", self.q_pos_m2_per_s),
+            ("q_speed_m2_per_s3", self.q_speed_m2_per_s3),
+            ("q_heading_rad2_per_s", self.q_heading_rad2_per_s),
+            ("fingerprint_sigma_m", self.fingerprint_sigma_m),
+            ("speed_sigma_mps", self.speed_sigma_mps),
+            ("heading_sigma_rad", self.heading_sigma_rad),
+            ("proximity_sigma_m", self.proximity_sigma_m),
+            ("ranging_sigma_db", self.ranging_sigma_db),
+            ("q_bias_db2_per_s", self.q_bias_db2_per_s),
+            ("bias_prior_sigma_db", self.bias_prior_sigma_db),
+            ("q_step_length_m2_per_s", self.q_step_length_m2_per_s),
+            (
+                "q_heading_error_rad2_per_s",
+                self.q_heading_error_rad2_per_s,
+            ),
+            ("gnss_max_accuracy_m", self.gnss_max_accuracy_m),
+        ];
+        for (f, v) in pos {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(Error::config(format!("ekf.{f}"), "must be finite and > 0"));
+            }
+        }
+        if !(self.proximity_rssi_dbm.is_finite() && self.ranging_rssi_dbm.is_finite()) {
+            return Err(Error::config("ekf.proximity_rssi_dbm", "must be finite"));
+        }
+        if self.ranging_max_beacons == 0 || self.gnss_window == 0 {
+            return Err(Error::config(
+                "ekf.ranging_max_beacons/gnss_window",
+                "must be >= 1",
+            ));
+        }
+        Ok(())
+    }
+}

@@ -19,15 +19,7 @@ use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::site::SiteSpec;
 use fpbp_logs::{ReadOptions, read_all};
 
-/// Which logs of the list (sorted by file name) to use.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum Split {
-    /// Even indices (0, 2, ...): the calibration half of DESIGN.md's rule.
-    Even,
-    /// Odd indices: the test half.
-    Odd,
-    All,
-}
+use crate::eval::{Split, select_logs};
 
 /// Arguments of `fpbp calibrate`.
 #[derive(clap::Args)]
@@ -62,20 +54,6 @@ pub struct Args {
     /// Engines for --check-logs.
     #[arg(long, default_value = "gml,trilat,frbw,ml,wcentroid")]
     pub check_engines: String,
-}
-
-fn select(logs: &[PathBuf], split: Split) -> Vec<PathBuf> {
-    let mut v = logs.to_vec();
-    v.sort_by(|a, b| a.file_name().cmp(&b.file_name()).then_with(|| a.cmp(b)));
-    v.into_iter()
-        .enumerate()
-        .filter(|(i, _)| match split {
-            Split::Even => i % 2 == 0,
-            Split::Odd => i % 2 == 1,
-            Split::All => true,
-        })
-        .map(|(_, p)| p)
-        .collect()
 }
 
 fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
@@ -187,7 +165,7 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 }
 
 fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
-    let logs = select(&args.check_logs, args.check_split);
+    let logs = select_logs(&args.check_logs, args.check_split);
     let site: Arc<fpbp_core::site::Site> = crate::site_io::load_site(&args.out)?;
     let opts = read_options(spec, args.floor);
     let mut all_events = Vec::new();
@@ -243,7 +221,7 @@ fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
 pub fn run(args: Args) -> Result<()> {
     let spec = load_spec(&args.site)?;
     let cfg = load_config(args.config.as_ref())?;
-    let logs = select(&args.logs, args.split);
+    let logs = select_logs(&args.logs, args.split);
     if logs.is_empty() {
         bail!("no logs left after --split {:?}", args.split);
     }

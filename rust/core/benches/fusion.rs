@@ -86,7 +86,7 @@ fn fusion_step(c: &mut Criterion) {
             let x_hat = pf.mean().unwrap_or(prev);
             pf.resample();
             let o = ppc::correct(&map, prev, x_hat, Some(x_b), &cfg.ppc);
-            ppc::apply_to_particles(&map, &mut pf, x_hat, &o);
+            ppc::apply_to_particles(&map, &mut pf, x_hat, &o, true);
             prev = if o.position.x > 37.0 {
                 start
             } else {

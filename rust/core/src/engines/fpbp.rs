@@ -318,7 +318,13 @@ impl FusionSide {
                 (true, Some(m)) => {
                     let o = ppc::correct(m, prev, x_hat, fix.map(|f| f.pos), &self.cfg.ppc);
                     self.count(o.case);
-                    let n = ppc::apply_to_particles(m, &mut self.pf, x_hat, &o);
+                    let n = ppc::apply_to_particles(
+                        m,
+                        &mut self.pf,
+                        x_hat,
+                        &o,
+                        self.cfg.ppc.shift_particles,
+                    );
                     self.ppc_counts.particles_replaced += n as u64;
                     o.position
                 }

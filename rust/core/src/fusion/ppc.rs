@@ -309,9 +309,10 @@ pub fn apply_to_particles<M: PlanQueries + ?Sized>(
     pf: &mut ParticleFilter,
     x_hat: Vec2,
     outcome: &PpcOutcome,
+    shift: bool,
 ) -> usize {
     let delta = outcome.position - x_hat;
-    if delta != Vec2::zeros() {
+    if shift && delta != Vec2::zeros() {
         pf.shift(delta);
     }
     pf.replace_invalid(|p| map.feature_at(p) != Feature::Walkable, outcome.position)
@@ -638,6 +639,7 @@ mod tests {
             bx in 0.0f64..10.0, by in 0.0f64..6.0,
             seed in 0u64..1000,
             extensions in any::<bool>(),
+            shift in any::<bool>(),
         ) {
             let m = two_rooms();
             let prev = Vec2::new(px, py);
@@ -654,8 +656,15 @@ mod tests {
             pf.resample();
             let o = correct(&m, prev, x_hat, Some(Vec2::new(bx, by)), &fc.ppc);
             prop_assert!(m.is_walkable(o.position), "{:?} -> {:?}", prev, o);
-            apply_to_particles(&m, &mut pf, x_hat, &o);
+            let before = pf.particles().to_vec();
+            apply_to_particles(&m, &mut pf, x_hat, &o, shift);
             prop_assert_eq!(pf.particles().len(), 200);
+            if !shift {
+                // without eq. 44 particles on walkable ground stay where they were
+                for (a, b) in before.iter().zip(pf.particles()) {
+                    prop_assert!(!m.is_walkable(*a) || a == b, "{:?} moved to {:?}", a, b);
+                }
+            }
             for p in pf.particles() {
                 prop_assert!(m.feature(*p) != Feature::Wall, "particle {:?} in a wall", p);
                 prop_assert!(m.is_walkable(*p));

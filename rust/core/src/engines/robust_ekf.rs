@@ -97,7 +97,6 @@ pub struct RobustEkfEngine {
     front: BleFrontEnd,
     pdr: Pdr,
     floors: FloorTracker,
-    has_pressure: bool,
     dbs: BTreeMap<i32, Option<FloorDb>>,
     x: DVector<f64>,
     p: DMatrix<f64>,
@@ -144,7 +143,6 @@ impl RobustEkfEngine {
             cfg: config.ekf.clone(),
             front,
             floors,
-            has_pressure: false,
             dbs: BTreeMap::new(),
             x,
             p,
@@ -171,7 +169,7 @@ impl RobustEkfEngine {
             self.floors.reset_to_floor(ble_floor);
         }
         // floors: barometer when the log has one, else the BLE floor
-        let floor = if self.has_pressure && self.initialised {
+        let floor = if self.floors.has_pressure() && self.initialised {
             self.floors.floor().unwrap_or(ble_floor)
         } else {
             ble_floor
@@ -283,11 +281,7 @@ impl Engine for RobustEkfEngine {
     fn on_sensor(&mut self, event: &SensorEvent) {
         self.stats.sensor_events += 1;
         if let SensorData::Pressure(p) = event.data {
-            let before = self.floors.rejected;
             self.floors.on_pressure(event.t_ns, p);
-            if self.floors.rejected == before {
-                self.has_pressure = true;
-            }
         }
         self.pdr.on_sensor(event);
     }
@@ -361,7 +355,7 @@ impl Engine for RobustEkfEngine {
                     self.floors.on_step(true);
                     self.stats.steps += 1;
                 }
-                if self.has_pressure
+                if self.floors.has_pressure()
                     && let Some(f) = self.floors.floor()
                 {
                     self.floor = f;

@@ -35,7 +35,6 @@ pub struct TcEkfEngine {
     front: BleFrontEnd,
     pdr: Pdr,
     floors: FloorTracker,
-    has_pressure: bool,
     x: DVector<f64>,
     p: DMatrix<f64>,
     initialised: bool,
@@ -85,7 +84,6 @@ impl TcEkfEngine {
             cfg: config.ekf.clone(),
             front,
             floors,
-            has_pressure: false,
             x,
             p,
             initialised,
@@ -159,7 +157,7 @@ impl TcEkfEngine {
         if !self.initialised {
             self.floors.reset_to_floor(ble_floor);
         }
-        let floor = if self.has_pressure && self.initialised {
+        let floor = if self.floors.has_pressure() && self.initialised {
             self.floors.floor().unwrap_or(ble_floor)
         } else {
             ble_floor
@@ -259,11 +257,7 @@ impl Engine for TcEkfEngine {
     fn on_sensor(&mut self, event: &SensorEvent) {
         self.stats.sensor_events += 1;
         if let SensorData::Pressure(p) = event.data {
-            let before = self.floors.rejected;
             self.floors.on_pressure(event.t_ns, p);
-            if self.floors.rejected == before {
-                self.has_pressure = true;
-            }
         }
         self.pdr.on_sensor(event);
     }
@@ -333,7 +327,7 @@ impl Engine for TcEkfEngine {
                     }
                     heading = s.yaw_rad + self.x[3];
                 }
-                if self.has_pressure
+                if self.floors.has_pressure()
                     && self.initialised
                     && let Some(f) = self.floors.floor()
                 {

@@ -173,6 +173,11 @@ impl FloorTracker {
     }
 
     /// One pressure sample, hPa.
+    /// Whether at least one pressure sample has been accepted.
+    pub fn has_pressure(&self) -> bool {
+        self.smoothed.is_some()
+    }
+
     pub fn on_pressure(&mut self, t_ns: i64, p_hpa: f64) {
         let Some(h) = baro_height_m(p_hpa) else {
             self.rejected += 1;

@@ -5,6 +5,7 @@ mod calibrate;
 mod common;
 mod demo;
 mod eval;
+mod fingerprint;
 mod import;
 mod import_geojson;
 mod import_ilc;
@@ -52,6 +53,11 @@ enum Command {
     },
     /// The main job: every engine on the demo site and its shipped logs.
     Demo(demo::Args),
+    /// Fingerprint databases for robust-ekf (walked survey logs).
+    Fingerprint {
+        #[command(subcommand)]
+        command: fingerprint::Command,
+    },
 }
 
 #[derive(Subcommand)]
@@ -74,6 +80,7 @@ fn main() {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Import { command } => import::run(command),
         Command::Demo(a) => demo::run(a),
+        Command::Fingerprint { command } => fingerprint::run(command),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

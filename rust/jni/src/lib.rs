@@ -97,8 +97,10 @@ fn write_pose(
     Ok(pose.t_ns)
 }
 
-/// `start(siteJson, siteDir, configJson, engine, init: DoubleArray?) -> handle`.
-/// `init` is `[x_m, y_m, floor, heading_rad]` (heading NaN = unknown) or null.
+/// `start(siteJson, siteDir, configJson, engine, init: DoubleArray?,
+/// fingerprintsJson: String?) -> handle`. `init` is `[x_m, y_m, floor,
+/// heading_rad]` (heading NaN = unknown) or null; `fingerprintsJson` an
+/// `fpbp-fingerprints` database for `robust-ekf` or null.
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
     mut env: EnvUnowned<'l>,
@@ -108,6 +110,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
     config_json: JString<'l>,
     engine: JString<'l>,
     init: JDoubleArray<'l>,
+    fingerprints_json: JString<'l>,
 ) -> jlong {
     entry(&mut env, "start", |env| {
         let site_json = string_arg(env, &site_json, "siteJson")?;
@@ -117,12 +120,14 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
         let init = double_array(env, &init)?
             .map(|v| session::init_from_array(&v))
             .transpose()?;
+        let fingerprints = optional_string(env, &fingerprints_json)?;
         let session = Session::start(
             &site_json,
             Path::new(&site_dir),
             &config_json,
             &engine,
             init,
+            fingerprints.as_deref(),
         )?;
         let handle = SESSIONS.insert(session)?;
         log::info!("started engine `{engine}` as handle {handle}");

@@ -5,9 +5,10 @@ use std::path::Path;
 use std::sync::Arc;
 
 use fpbp_core::engine::{
-    Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task, build_engine,
+    Engine, EngineConfig, EngineData, EngineStats, InitialPosition, Pose, Task, build_engine_with,
 };
 use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent};
+use fpbp_core::fingerprint::FingerprintSet;
 
 use crate::error::BridgeError;
 use crate::site_loader;
@@ -66,13 +67,17 @@ pub fn init_from_array(v: &[f64]) -> Result<InitialPosition, BridgeError> {
 }
 
 impl Session {
-    /// Loads the site, parses the config (empty text = defaults) and builds `engine`.
+    /// Loads the site, parses the config (empty text = defaults) and builds
+    /// `engine`. `fingerprints_json` is an optional `fpbp-fingerprints` file
+    /// (docs/fingerprints.md, e.g. from `fpbp fingerprint build`) for
+    /// `robust-ekf`; the other engines ignore it.
     pub fn start(
         site_json: &str,
         site_dir: &Path,
         config_json: &str,
         engine: &str,
         init: Option<InitialPosition>,
+        fingerprints_json: Option<&str>,
     ) -> Result<Session, BridgeError> {
         if !fpbp_core::engine::ENGINE_NAMES.contains(&engine) {
             return Err(fpbp_core::Error::UnknownEngine(
@@ -87,7 +92,16 @@ impl Session {
             EngineConfig::from_json(config_json)?
         };
         let site = site_loader::load_site(site_json, site_dir)?;
-        let engine = build_engine(engine, Arc::new(site), &config, init)?;
+        let fingerprints = match fingerprints_json.filter(|t| !t.trim().is_empty()) {
+            Some(text) => Some(Arc::new(FingerprintSet::from_json(
+                text,
+                &site,
+                &config.ble,
+            )?)),
+            None => None,
+        };
+        let data = EngineData { fingerprints };
+        let engine = build_engine_with(engine, Arc::new(site), &config, init, &data)?;
         Ok(Session::from_engine(engine))
     }
 
@@ -383,6 +397,7 @@ mod tests {
             "",
             "no-such-engine",
             None,
+            None,
         );
         match r {
             Err(BridgeError::IllegalArgument(m)) => assert!(m.contains("no-such-engine"), "{m}"),
@@ -402,6 +417,7 @@ mod tests {
             Path::new("."),
             r#"{"tasks": {"fusion_period_ms": 0}}"#,
             engine,
+            None,
             None,
         );
         match r {

@@ -22,8 +22,10 @@ class FpbpEngine private constructor(
         /**
          * Starts engine [engine] on the site described by [siteJson], whose plan
          * paths are relative to [siteDir]. [configJson] is an engine config
-         * (empty = defaults). Throws [IllegalArgumentException] naming the bad
-         * field, file or name.
+         * (empty = defaults). [fingerprintsJson] is a walked-survey fingerprint
+         * database for `robust-ekf` (`fpbp fingerprint build`; null = the engine
+         * builds one from the path-loss model). Throws [IllegalArgumentException]
+         * naming the bad field, file or name.
          */
         @JvmStatic
         @JvmOverloads
@@ -33,8 +35,9 @@ class FpbpEngine private constructor(
             engine: String,
             configJson: String = "",
             init: InitialPosition? = null,
+            fingerprintsJson: String? = null,
         ): FpbpEngine {
-            val h = NativeBridge.start(siteJson, siteDir, configJson, engine, init?.toNative())
+            val h = NativeBridge.start(siteJson, siteDir, configJson, engine, init?.toNative(), fingerprintsJson)
             return FpbpEngine(h, engine)
         }
 

@@ -30,6 +30,8 @@ object NativeBridge {
      * Loads the site (site.json text; plan paths relative to [siteDir]),
      * parses [configJson] (empty = defaults) and starts [engine].
      * [init] is `[x_m, y_m, floor, heading_rad]` (heading NaN = unknown) or null.
+     * [fingerprintsJson] is an `fpbp-fingerprints` database (docs/fingerprints.md)
+     * for `robust-ekf`, or null.
      */
     @JvmStatic external fun start(
         siteJson: String,
@@ -37,6 +39,7 @@ object NativeBridge {
         configJson: String,
         engine: String,
         init: DoubleArray?,
+        fingerprintsJson: String?,
     ): Long
 
     /** Forgets [handle]; throws [IllegalStateException] if it is not live. */

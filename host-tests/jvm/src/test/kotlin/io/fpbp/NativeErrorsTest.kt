@@ -19,7 +19,7 @@ class NativeErrorsTest {
     @Test
     fun badSiteJsonNamesLineAndColumn() {
         val e = assertThrows<IllegalArgumentException> {
-            NativeBridge.start("{ \"format\": ", dir, "", TestSupport.engine, null)
+            NativeBridge.start("{ \"format\": ", dir, "", TestSupport.engine, null, null)
         }
         assertMessage(e, "site.json", "line 1")
     }
@@ -27,25 +27,25 @@ class NativeErrorsTest {
     @Test
     fun siteJsonWithAnUnknownFieldIsRejected() {
         val bad = site.replaceFirst("\"name\": \"host-test open floor\"", "\"name\": \"x\", \"colour\": 3")
-        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(bad, dir, "", TestSupport.engine, null) }
+        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(bad, dir, "", TestSupport.engine, null, null) }
         assertMessage(e, "colour")
     }
 
     @Test
     fun badConfigJsonNamesTheField() {
         val e = assertThrows<IllegalArgumentException> {
-            NativeBridge.start(site, dir, "{\"tasks\": {\"gml_period_ms\": 0}}", TestSupport.engine, null)
+            NativeBridge.start(site, dir, "{\"tasks\": {\"gml_period_ms\": 0}}", TestSupport.engine, null, null)
         }
         assertMessage(e, "tasks.gml_period_ms")
         val e2 = assertThrows<IllegalArgumentException> {
-            NativeBridge.start(site, dir, "{\"no_such_field\": 1}", TestSupport.engine, null)
+            NativeBridge.start(site, dir, "{\"no_such_field\": 1}", TestSupport.engine, null, null)
         }
         assertMessage(e2, "no_such_field")
     }
 
     @Test
     fun unknownEngineListsTheKnownOnes() {
-        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", "no-such-engine", null) }
+        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", "no-such-engine", null, null) }
         assertMessage(e, "no-such-engine")
         for (name in TestSupport.engines) assertMessage(e, name)
     }
@@ -53,15 +53,15 @@ class NativeErrorsTest {
     @Test
     fun missingPlanNamesTheFile() {
         val withPlan = site.replace("\"open_area_m\": [20.0, 12.0]", "\"plan\": \"no/such/plan.png\"")
-        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(withPlan, dir, "", TestSupport.engine, null) }
+        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(withPlan, dir, "", TestSupport.engine, null, null) }
         assertMessage(e, "plan.png")
     }
 
     @Test
     fun badInitialPositionIsRejected() {
-        assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", TestSupport.engine, doubleArrayOf(1.0, 2.0)) }
+        assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", TestSupport.engine, doubleArrayOf(1.0, 2.0), null) }
         assertThrows<IllegalArgumentException> {
-            NativeBridge.start(site, dir, "", TestSupport.engine, doubleArrayOf(1.0, 2.0, 0.5, Double.NaN))
+            NativeBridge.start(site, dir, "", TestSupport.engine, doubleArrayOf(1.0, 2.0, 0.5, Double.NaN), null)
         }
     }
 

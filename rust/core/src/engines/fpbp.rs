@@ -25,7 +25,9 @@ use crate::Vec2;
 use crate::ble::{BleTask, PositionerKind, task::BleFix};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
 use crate::events::{BleObservation, SensorEvent};
+use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
 use crate::fusion::{FusionConfig, ParticleFilter, PpcCase, ppc};
+use crate::map::Feature;
 use crate::pdr::Pdr;
 use crate::site::Site;
 use crate::{Error, Result};
@@ -42,6 +44,11 @@ pub struct PpcCounts {
     pub door_snapped: u64,
     /// Particles moved off obstacles after eq. 44.
     pub particles_replaced: u64,
+    /// Steps where the heaviest room took the track through a wall
+    /// (`fusion.room_switch_mass`, PPC skipped).
+    pub room_switched: u64,
+    /// Particles re-seeded around x_B (`fusion.recovery_max_fraction`).
+    pub particles_reseeded: u64,
 }
 
 /// The nearest walkable point to `p` on rings of 0.1 m spacing (32 bearings
@@ -113,6 +120,14 @@ pub struct FusionSide {
     heading_rad: f64,
     pose: Option<Pose>,
     steps: u64,
+    /// Augmented-MCL likelihood averages (recovery extension).
+    monitor: LikelihoodMonitor,
+    /// Time of the last x_B that weighted the particles.
+    weighted_fix_t_ns: Option<i64>,
+    /// Whether the current start is a caller's [`InitialPosition`] (exact:
+    /// no spread, no re-localisation unless configured) rather than a mean
+    /// of BLE fixes.
+    given_start: bool,
     /// Re-localisations so far.
     pub relocalized: u64,
     pub ppc_counts: PpcCounts,
@@ -143,6 +158,9 @@ impl FusionSide {
             heading_rad: 0.0,
             pose: None,
             steps: 0,
+            monitor: LikelihoodMonitor::default(),
+            weighted_fix_t_ns: None,
+            given_start: false,
             relocalized: 0,
             ppc_counts: PpcCounts::default(),
         };
@@ -155,7 +173,7 @@ impl FusionSide {
             }
             side.floor = i.floor;
             side.heading_rad = i.heading_rad.filter(|h| h.is_finite()).unwrap_or(0.0);
-            side.start(Vec2::new(i.x_m, i.y_m), None);
+            side.start(Vec2::new(i.x_m, i.y_m), None, true);
         }
         Ok(side)
     }
@@ -165,8 +183,11 @@ impl FusionSide {
         self.pdr.on_sensor(e);
     }
 
-    fn start(&mut self, at: Vec2, t_ns: Option<i64>) {
-        let spread = self.cfg.init_spread_m;
+    /// Starts the particles at `at`: on the point for a caller's start
+    /// (`given`), spread over `init_spread_m` for a start from BLE fixes.
+    fn start(&mut self, at: Vec2, t_ns: Option<i64>, given: bool) {
+        let spread = if given { 0.0 } else { self.cfg.init_spread_m };
+        self.given_start = given;
         let map = self.site.floor(self.floor);
         // A start on an obstacle (a mean of BLE fixes, a tap on a wall) moves
         // to the nearest walkable point found within 5 m.
@@ -180,6 +201,7 @@ impl FusionSide {
         self.init_fixes.clear();
         self.other_floor = None;
         self.far_fixes.clear();
+        self.monitor.reset();
         if let Some(t) = t_ns {
             self.publish(t, at);
         }
@@ -220,7 +242,7 @@ impl FusionSide {
                 if self.init_fixes.len() >= need {
                     let n = self.init_fixes.len() as f64;
                     let mean = self.init_fixes.iter().sum::<Vec2>() / n;
-                    self.start(mean, Some(t_ns));
+                    self.start(mean, Some(t_ns), false);
                 }
             }
             return None;
@@ -236,7 +258,7 @@ impl FusionSide {
                     let n = entry.1.len() as f64;
                     let mean = entry.1.iter().sum::<Vec2>() / n;
                     self.floor = fix.floor;
-                    self.start(mean, Some(t_ns));
+                    self.start(mean, Some(t_ns), false);
                 }
             }
             return None;
@@ -245,6 +267,7 @@ impl FusionSide {
             self.other_floor = None;
             let n = self.cfg.relocalize_after_fixes as usize;
             if n > 0
+                && (!self.given_start || self.cfg.relocalize_after_given_start)
                 && let Some(prev) = self.prev
             {
                 if (fix.pos - prev).norm() > self.cfg.relocalize_distance_m {
@@ -252,7 +275,7 @@ impl FusionSide {
                     if self.far_fixes.len() >= n {
                         let mean = self.far_fixes.iter().sum::<Vec2>() / n as f64;
                         self.relocalized += 1;
-                        self.start(mean, Some(t_ns));
+                        self.start(mean, Some(t_ns), false);
                         return None;
                     }
                 } else {
@@ -303,33 +326,98 @@ impl FusionSide {
                 self.before.extend_from_slice(self.pf.particles());
             }
             self.pf.predict(length_m, yaw_rad);
-            if let Some(f) = fix {
+            let mut reseed = 0.0;
+            let weigh = fix.filter(|f| {
+                !self.cfg.weight_each_fix_once || self.weighted_fix_t_ns != Some(f.t_ns)
+            });
+            if let Some(f) = weigh {
+                self.weighted_fix_t_ns = Some(f.t_ns);
+                if self.use_ppc && map.is_some() && self.cfg.recovery_max_fraction > 0.0 {
+                    let l = self.pf.mean_likelihood(f.pos, self.cfg.sigma_x_m);
+                    reseed = self.monitor.update(
+                        l,
+                        self.cfg.recovery_alpha_slow,
+                        self.cfg.recovery_alpha_fast,
+                        self.cfg.recovery_max_fraction,
+                    );
+                }
                 self.pf.weight(f.pos);
             }
             if check && let Some(m) = map {
                 let step_m = self.cfg.ppc.raycast_step_m;
-                self.pf
-                    .penalize_moves(&self.before, |a, b| m.raycast(a, b, step_m).is_some());
+                if self.cfg.particles_pass_doors {
+                    self.pf
+                        .penalize_moves(&self.before, |a, b| ppc::crosses_wall(m, a, b, step_m));
+                } else {
+                    self.pf
+                        .penalize_moves(&self.before, |a, b| m.raycast(a, b, step_m).is_some());
+                }
             }
-            let Some(x_hat) = self.pf.mean() else { return };
+            // Room-level hypothesis: the heaviest room's mean is the estimate.
+            let mode = match map {
+                Some(m) if self.use_ppc && self.cfg.room_estimate => {
+                    dominant_room(self.pf.particles(), self.pf.weights(), |p| m.room_of(p))
+                }
+                _ => None,
+            };
+            let Some(x_hat) = mode.map(|r| r.mean).or_else(|| self.pf.mean()) else {
+                return;
+            };
             self.pf.resample();
             let prev = self.prev.unwrap_or(x_hat);
-            let pos = match (self.use_ppc, map) {
-                (true, Some(m)) => {
+            // The heaviest room is not the previous one and holds enough of
+            // the weight: the cloud has moved, follow it even through a wall.
+            let switch = match (map, mode) {
+                (Some(m), Some(r))
+                    if self.cfg.room_switch_mass > 0.0
+                        && r.mass >= self.cfg.room_switch_mass
+                        && m.room_of(prev).is_some_and(|p| p != r.room) =>
+                {
+                    m.nearest_walkable_in_room(r.room, r.mean)
+                }
+                _ => None,
+            };
+            let pos = match (self.use_ppc, map, switch) {
+                (true, Some(m), Some(to)) => {
+                    self.ppc_counts.room_switched += 1;
+                    let doors_ok = self.cfg.particles_pass_doors;
+                    let n = self.pf.replace_invalid(
+                        |p| match m.feature(p) {
+                            Feature::Walkable => false,
+                            Feature::Door => !doors_ok,
+                            Feature::Wall => true,
+                        },
+                        to,
+                    );
+                    self.ppc_counts.particles_replaced += n as u64;
+                    to
+                }
+                (true, Some(m), None) => {
                     let o = ppc::correct(m, prev, x_hat, fix.map(|f| f.pos), &self.cfg.ppc);
                     self.count(o.case);
-                    let n = ppc::apply_to_particles(
+                    let n = ppc::apply_to_particles_with_doors(
                         m,
                         &mut self.pf,
                         x_hat,
                         &o,
                         self.cfg.ppc.shift_particles,
+                        self.cfg.particles_pass_doors,
                     );
                     self.ppc_counts.particles_replaced += n as u64;
                     o.position
                 }
                 _ => x_hat,
             };
+            if reseed > 0.0
+                && let (Some(m), Some(f)) = (map, fix)
+            {
+                let n = self
+                    .pf
+                    .inject(reseed, f.pos, self.cfg.recovery_sigma_m, |p| {
+                        m.is_walkable(p)
+                    });
+                self.ppc_counts.particles_reseeded += n as u64;
+            }
             let d = pos - prev;
             self.heading_rad = if d.norm() > 1e-6 {
                 d.y.atan2(d.x)
@@ -523,6 +611,9 @@ mod tests {
             ..EngineConfig::default()
         };
         cfg.fusion.particle_wall_check = particle_wall_check;
+        // The estimate is the whole cloud's mean, so PPC (not the room-level
+        // estimate, which ignores particles in walls) keeps the track in.
+        cfg.fusion.room_estimate = false;
         let init = InitialPosition {
             x_m: 1.0,
             y_m: 2.0,
@@ -585,5 +676,94 @@ mod tests {
             (p.x_m - 5.0).abs() < 1e-9 && (p.y_m - 5.0 / 3.0).abs() < 1e-9,
             "{p:?}"
         );
+    }
+
+    /// 20 m x 10 m at 10 px/m, border walls, and a wall without a door at
+    /// x in [10.0, 10.3): room A on the left, room B on the right.
+    fn two_room_site() -> Arc<Site> {
+        let spec: SiteSpec = serde_json::from_str(
+            r#"{"format": "fpbp-site", "version": 1, "name": "two rooms",
+                "floors": [{"id": 0, "open_area_m": [20.0, 10.0]}]}"#,
+        )
+        .unwrap();
+        let (w, h) = (200usize, 100usize);
+        let mut f = vec![Feature::Walkable; w * h];
+        for j in 0..h {
+            for i in 0..w {
+                if i < 3 || i >= w - 3 || j < 3 || j >= h - 3 || (100..103).contains(&i) {
+                    f[j * w + i] = Feature::Wall;
+                }
+            }
+        }
+        Arc::new(Site {
+            spec,
+            floors: vec![FloorMap::from_features(w, h, 10.0, f)],
+        })
+    }
+
+    /// Own start from three fixes at `start`, then `n` short steps with x_B
+    /// at `x_b`; returns the final pose.
+    fn stay_with_ble(cfg: &EngineConfig, start: Vec2, x_b: Vec2, n: i64) -> Pose {
+        let mut side = FusionSide::new(two_room_site(), cfg, true, None).unwrap();
+        for k in 1..=3 {
+            side.run_steps(k, Some(fix(k, start.x, start.y)), &[]);
+        }
+        for k in 1..=n {
+            let t = k * 1_000_000_000;
+            let yaw = if k % 2 == 0 { 1.5 } else { -1.5 };
+            side.run_steps(t, Some(fix(t, x_b.x, x_b.y)), &[(0.1, yaw)]);
+        }
+        side.pose().unwrap()
+    }
+
+    /// Room-level hypothesis: a cloud spread over both rooms follows
+    /// persistent x_B into room B through the wall; without the switch PPC
+    /// keeps the track in room A.
+    #[test]
+    fn heaviest_room_takes_the_track_through_a_wall() {
+        let mut cfg = EngineConfig::default();
+        cfg.fusion.relocalize_after_fixes = 0;
+        let (start, x_b) = (Vec2::new(9.0, 5.0), Vec2::new(13.0, 5.0));
+        let on = stay_with_ble(&cfg, start, x_b, 20);
+        assert!(on.x_m > 10.3, "{on:?}");
+        cfg.fusion.room_switch_mass = 0.0;
+        let off = stay_with_ble(&cfg, start, x_b, 20);
+        assert!(off.x_m < 10.0, "{off:?}");
+        cfg.fusion.room_estimate = false;
+        let paper = stay_with_ble(&cfg, start, x_b, 20);
+        assert!(paper.x_m < 10.0, "{paper:?}");
+    }
+
+    /// A caller's start is trusted: x_B far away in the other room does not
+    /// re-localise the filter unless `relocalize_after_given_start`.
+    #[test]
+    fn given_start_is_not_relocalized_by_default() {
+        let run = |cfg: &EngineConfig| {
+            let init = InitialPosition {
+                x_m: 5.0,
+                y_m: 5.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            let mut side = FusionSide::new(two_room_site(), cfg, true, Some(init)).unwrap();
+            for k in 1..=10i64 {
+                let t = k * 1_000_000_000;
+                let yaw = if k % 2 == 0 { 1.5 } else { -1.5 };
+                side.run_steps(t, Some(fix(t, 15.0, 5.0)), &[(0.1, yaw)]);
+            }
+            (
+                side.pose().unwrap(),
+                side.relocalized,
+                side.particles().to_vec(),
+            )
+        };
+        let mut cfg = EngineConfig::default();
+        let (p, n, parts) = run(&cfg);
+        assert!(p.x_m < 10.0 && n == 0, "{p:?} {n}");
+        // The given start is exact: no particle crossed into room B.
+        assert!(parts.iter().all(|q| q.x < 10.0));
+        cfg.fusion.relocalize_after_given_start = true;
+        let (p, n, _) = run(&cfg);
+        assert!(p.x_m > 10.3 && n == 1, "{p:?} {n}");
     }
 }

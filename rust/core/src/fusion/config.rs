@@ -156,9 +156,12 @@ pub struct FusionConfig {
     /// Number of first BLE positions averaged into the start position
     /// (x̄_B^(0), Sec. IV-C). Default 3.
     pub init_ble_fixes: u32,
-    /// Radius of the uniform disc the particles start in around the start
-    /// position, metres (0 = all on the start point, as in the paper).
-    /// Default 0.0.
+    /// Radius of the uniform disc the particles start in around a start
+    /// from BLE fixes, metres (0 = all on the start point, as in the paper;
+    /// a caller's `InitialPosition` always starts them on its point).
+    /// Default 3.0 (about half the demo's GML error; chosen on the demo
+    /// logs, docs/fusion.md): a start in the wrong room keeps hypotheses in
+    /// the neighbouring rooms instead of being trapped by the walls.
     pub init_spread_m: f64,
     /// A BLE position older than this is not used to weight particles (the
     /// filter dead-reckons on the map instead), seconds. Default 5.0.
@@ -171,10 +174,57 @@ pub struct FusionConfig {
     pub relocalize_after_fixes: u32,
     /// Distance of the re-localisation test, metres. Default 8.0.
     pub relocalize_distance_m: f64,
+    /// Whether re-localisation also runs after a start the caller gave
+    /// (`InitialPosition`: a tap, a QR code, `--init truth`). Default false:
+    /// a given start is trusted, and re-localising on x_B errs when x_B is
+    /// poor (ILC site1/F1 even paths, `--init truth`: fpbp 5.79 m with it,
+    /// 4.40 m without; docs/fusion.md). Starts from BLE fixes always use it.
+    pub relocalize_after_given_start: bool,
     /// Extension (not in the paper): particles whose own move crosses a
     /// Wall or Door get weight 0 before resampling (`fpbp` only). Default
     /// true (chosen on the demo logs, see docs/fusion.md; the paper has none).
     pub particle_wall_check: bool,
+    /// Recovery extension (not in the paper, `fpbp` only): the largest
+    /// fraction of the particles re-seeded around x_B in one fused step when
+    /// the cloud's BLE likelihood has dropped (augmented MCL,
+    /// `fusion::recovery`), dimensionless in [0, 1]; 0 disables it (the
+    /// paper). Default 0.0: measured harmful on the demo walks, where x_B
+    /// errs by 5-6 m and the re-seeded particles make the track follow it
+    /// (docs/fusion.md); available for sites with better BLE.
+    pub recovery_max_fraction: f64,
+    /// Slow averaging rate of the cloud's BLE likelihood (per fused step),
+    /// in (0, 1]. Default 0.05 (about 20 steps).
+    pub recovery_alpha_slow: f64,
+    /// Fast averaging rate (per fused step), in (0, 1], >= the slow one.
+    /// Default 0.3 (about 3 steps).
+    pub recovery_alpha_fast: f64,
+    /// Standard deviation of the Gaussian the re-seeded particles are drawn
+    /// from around x_B, metres. Default 2.0.
+    pub recovery_sigma_m: f64,
+    /// Room-level estimate (not in the paper, `fpbp` only): the estimate x̂
+    /// is the weighted mean of the particles in the room holding the most
+    /// weight instead of the mean of the whole cloud. Default true (chosen
+    /// on the demo logs, docs/fusion.md; the paper: false).
+    pub room_estimate: bool,
+    /// With `room_estimate`: when the heaviest room holds at least this
+    /// fraction of the weight and is not the room of x^(k-1), the track
+    /// moves there even through a wall (PPC is skipped for that step),
+    /// dimensionless in [0, 1]; 0 disables the switch. Default 0.6 (chosen
+    /// on the demo logs, docs/fusion.md).
+    pub room_switch_mass: f64,
+    /// Whether each x_B weights the particles at one step only (the first
+    /// step after it arrived) instead of at every step while it is fresh.
+    /// x_B comes every T_gml (1 s) and steps about every 0.5 s, so reusing
+    /// it counts one measurement as several independent ones. Default
+    /// false (the paper reuses the latest x_B).
+    pub weight_each_fix_once: bool,
+    /// With `particle_wall_check`: whether particles may cross and stand on
+    /// Door pixels (only a Wall crossing zeroes a particle's weight, and
+    /// only particles on Wall pixels are replaced after PPC). `false`
+    /// treats doors like walls for the particles, so a cloud can change
+    /// rooms only through PPC's eq. 44 shift. Default true (measured on the
+    /// demo logs, docs/fusion.md).
+    pub particles_pass_doors: bool,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -188,12 +238,41 @@ impl Default for FusionConfig {
             sigma_x_m: 3.0,
             resampling: Resampling::Systematic,
             init_ble_fixes: 3,
-            init_spread_m: 0.0,
+            init_spread_m: 3.0,
             ble_max_age_s: 5.0,
             relocalize_after_fixes: 5,
             relocalize_distance_m: 8.0,
+            relocalize_after_given_start: false,
             particle_wall_check: true,
+            recovery_max_fraction: 0.0,
+            recovery_alpha_slow: 0.05,
+            recovery_alpha_fast: 0.3,
+            recovery_sigma_m: 2.0,
+            room_estimate: true,
+            room_switch_mass: 0.6,
+            weight_each_fix_once: false,
+            particles_pass_doors: true,
             ppc: PpcConfig::default(),
+        }
+    }
+}
+
+impl FusionConfig {
+    /// The paper's FP-BP alone: no extension (no re-localisation, particle
+    /// wall check, recovery or room-level estimate) and [`PpcConfig::paper`].
+    pub fn paper() -> Self {
+        FusionConfig {
+            init_spread_m: 0.0,
+            relocalize_after_fixes: 0,
+            relocalize_after_given_start: true,
+            particle_wall_check: false,
+            recovery_max_fraction: 0.0,
+            room_estimate: false,
+            room_switch_mass: 0.0,
+            weight_each_fix_once: false,
+            particles_pass_doors: false,
+            ppc: PpcConfig::paper(),
+            ..FusionConfig::default()
         }
     }
 }
@@ -221,6 +300,36 @@ impl FusionConfig {
         nonneg(self.relocalize_distance_m, "relocalize_distance_m")?;
         if !(self.sigma_x_m.is_finite() && self.sigma_x_m > 0.0) {
             return Err(Error::config("fusion.sigma_x_m", "must be > 0"));
+        }
+        let unit = |v: f64, name: &str| {
+            if v.is_finite() && (0.0..=1.0).contains(&v) {
+                Ok(())
+            } else {
+                Err(Error::config(format!("fusion.{name}"), "must be in [0, 1]"))
+            }
+        };
+        unit(self.recovery_max_fraction, "recovery_max_fraction")?;
+        unit(self.room_switch_mass, "room_switch_mass")?;
+        if !(self.recovery_alpha_slow.is_finite()
+            && self.recovery_alpha_slow > 0.0
+            && self.recovery_alpha_slow <= 1.0)
+        {
+            return Err(Error::config(
+                "fusion.recovery_alpha_slow",
+                "must be in (0, 1]",
+            ));
+        }
+        if !(self.recovery_alpha_fast.is_finite()
+            && self.recovery_alpha_fast >= self.recovery_alpha_slow
+            && self.recovery_alpha_fast <= 1.0)
+        {
+            return Err(Error::config(
+                "fusion.recovery_alpha_fast",
+                "must be in [recovery_alpha_slow, 1]",
+            ));
+        }
+        if !(self.recovery_sigma_m.is_finite() && self.recovery_sigma_m > 0.0) {
+            return Err(Error::config("fusion.recovery_sigma_m", "must be > 0"));
         }
         if self.init_ble_fixes == 0 {
             return Err(Error::config("fusion.init_ble_fixes", "must be >= 1"));

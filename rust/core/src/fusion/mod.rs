@@ -5,11 +5,14 @@
 //! - [`particle_filter`]: eq. 34 (transition), eq. 36 (weights), resampling,
 //!   eq. 35b (estimate), eq. 44 (shift).
 //! - [`ppc`]: Algorithm 2 on a [`ppc::PlanQueries`] map (raycast, room, normal).
+//! - [`recovery`]: extensions letting persistent BLE evidence move the
+//!   cloud between rooms (augmented-MCL re-seeding, room-level estimate).
 //! - [`FusionConfig`]: every threshold, with units and defaults.
 
 pub mod config;
 pub mod particle_filter;
 pub mod ppc;
+pub mod recovery;
 
 pub use config::{FusionConfig, PpcConfig, Resampling};
 pub use particle_filter::ParticleFilter;

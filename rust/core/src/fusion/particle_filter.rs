@@ -224,6 +224,70 @@ impl ParticleFilter {
         bad_idx.len()
     }
 
+    /// Mean over the particles of the unnormalised eq. 36 likelihood
+    /// exp(-|x_i - x_B|^2 / (2 sigma^2)) with standard deviation `sigma_m`
+    /// (0 without particles). With equal weights (after resampling) this is
+    /// the measurement likelihood of the whole cloud that augmented MCL
+    /// tracks (recovery extension).
+    pub fn mean_likelihood(&self, x_b: Vec2, sigma_m: f64) -> f64 {
+        if self.particles.is_empty() || sigma_m.is_nan() || sigma_m <= 0.0 {
+            return 0.0;
+        }
+        let inv = 1.0 / (2.0 * sigma_m * sigma_m);
+        let s: f64 = self
+            .particles
+            .iter()
+            .map(|p| (-(p - x_b).norm_squared() * inv).exp())
+            .sum();
+        s / self.particles.len() as f64
+    }
+
+    /// Sets sigma_x of eq. 36 for the following [`ParticleFilter::weight`]
+    /// calls, metres (ignored unless finite and > 0).
+    pub fn set_sigma_x(&mut self, sigma_m: f64) {
+        if sigma_m.is_finite() && sigma_m > 0.0 {
+            self.sigma_x_m = sigma_m;
+        }
+    }
+
+    /// Recovery extension (sensor-resetting / augmented MCL): replaces
+    /// `round(fraction * m)` particles, chosen at random, by draws from an
+    /// isotropic Gaussian around `center` with standard deviation `sigma_m`
+    /// that `accept` takes (up to 16 tries each; a particle whose draws are
+    /// all rejected stays). Weights are left as they are (call after
+    /// resampling, when they are equal). Returns how many were replaced.
+    pub fn inject(
+        &mut self,
+        fraction: f64,
+        center: Vec2,
+        sigma_m: f64,
+        accept: impl Fn(Vec2) -> bool,
+    ) -> usize {
+        let m = self.particles.len();
+        if m == 0 || fraction.is_nan() || fraction <= 0.0 {
+            return 0;
+        }
+        let k = ((fraction.min(1.0) * m as f64).round() as usize).min(m);
+        let mut n = 0;
+        for _ in 0..k {
+            let i = ((self.rng.random::<f64>() * m as f64) as usize).min(m - 1);
+            for _ in 0..16 {
+                // Box-Muller: two uniforms -> two independent N(0, 1).
+                let u1: f64 = self.rng.random::<f64>().max(f64::MIN_POSITIVE);
+                let u2: f64 = self.rng.random::<f64>();
+                let r = sigma_m * (-2.0 * u1.ln()).sqrt();
+                let a = std::f64::consts::TAU * u2;
+                let q = center + Vec2::new(r * a.cos(), r * a.sin());
+                if accept(q) {
+                    self.particles[i] = q;
+                    n += 1;
+                    break;
+                }
+            }
+        }
+        n
+    }
+
     /// Particle positions.
     pub fn particles(&self) -> &[Vec2] {
         &self.particles
@@ -336,5 +400,35 @@ mod tests {
             // Resampling only copies existing particles.
             prop_assert!(pf.particles().iter().all(|p| before.contains(p)));
         }
+    }
+
+    #[test]
+    fn inject_replaces_the_fraction_with_accepted_points_near_the_centre() {
+        let mut pf = filter(1000, Resampling::Systematic, 3);
+        pf.init_at(Vec2::new(0.0, 0.0), 0.0, |_| true);
+        let c = Vec2::new(20.0, 5.0);
+        // Only the half-plane x >= 20 is accepted.
+        let n = pf.inject(0.2, c, 1.0, |p| p.x >= 20.0);
+        let moved: Vec<_> = pf.particles().iter().filter(|p| p.x != 0.0).collect();
+        // Random indices may repeat: at most n distinct particles move.
+        assert!(n > 150 && n <= 200, "{n}");
+        assert!(moved.len() <= n && moved.len() > 150, "{}", moved.len());
+        assert!(moved.iter().all(|p| p.x >= 20.0 && (**p - c).norm() < 6.0));
+        let mut again = filter(1000, Resampling::Systematic, 3);
+        again.init_at(Vec2::new(0.0, 0.0), 0.0, |_| true);
+        again.inject(0.2, c, 1.0, |p| p.x >= 20.0);
+        assert_eq!(pf.particles(), again.particles());
+        assert_eq!(pf.inject(0.0, c, 1.0, |_| true), 0);
+        assert_eq!(pf.inject(0.5, c, 1.0, |_| false), 0);
+    }
+
+    #[test]
+    fn mean_likelihood_falls_with_distance() {
+        let mut pf = filter(100, Resampling::Systematic, 1);
+        pf.init_at(Vec2::new(0.0, 0.0), 0.0, |_| true);
+        assert!((pf.mean_likelihood(Vec2::new(0.0, 0.0), 3.0) - 1.0).abs() < 1e-12);
+        let near = pf.mean_likelihood(Vec2::new(3.0, 0.0), 3.0);
+        assert!((near - (-0.5f64).exp()).abs() < 1e-12);
+        assert!(pf.mean_likelihood(Vec2::new(9.0, 0.0), 3.0) < near);
     }
 }

@@ -300,10 +300,11 @@ fn far_side_of_door<M: PlanQueries + ?Sized>(
         .find(|q| map.feature_at(*q) == Feature::Walkable)
 }
 
-/// Eq. 44 plus the wall rule: shifts every particle by x^(k) - x̂, then
-/// replaces each particle left on an obstacle (Wall or Door) by a copy of a
-/// random walkable particle (or by x^(k) when none is walkable), so no
-/// particle ends inside a wall. Returns how many particles were replaced.
+/// Eq. 44 plus the wall rule: shifts every particle by x^(k) - x̂ (when
+/// `shift`), then replaces each particle left on an obstacle (Wall or Door)
+/// by a copy of a random walkable particle (or by x^(k) when none is
+/// walkable), so no particle ends inside a wall. Returns how many particles
+/// were replaced.
 pub fn apply_to_particles<M: PlanQueries + ?Sized>(
     map: &M,
     pf: &mut ParticleFilter,
@@ -311,11 +312,45 @@ pub fn apply_to_particles<M: PlanQueries + ?Sized>(
     outcome: &PpcOutcome,
     shift: bool,
 ) -> usize {
+    apply_to_particles_with_doors(map, pf, x_hat, outcome, shift, false)
+}
+
+/// [`apply_to_particles`] where particles on Door pixels may stay when
+/// `doors_ok` (only those on Wall pixels are replaced).
+pub fn apply_to_particles_with_doors<M: PlanQueries + ?Sized>(
+    map: &M,
+    pf: &mut ParticleFilter,
+    x_hat: Vec2,
+    outcome: &PpcOutcome,
+    shift: bool,
+    doors_ok: bool,
+) -> usize {
     let delta = outcome.position - x_hat;
     if shift && delta != Vec2::zeros() {
         pf.shift(delta);
     }
-    pf.replace_invalid(|p| map.feature_at(p) != Feature::Walkable, outcome.position)
+    pf.replace_invalid(
+        |p| match map.feature_at(p) {
+            Feature::Walkable => false,
+            Feature::Door => !doors_ok,
+            Feature::Wall => true,
+        },
+        outcome.position,
+    )
+}
+
+/// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
+/// not count), sampled at most `step_m` apart as Function 1 does, both ends
+/// included: the particle wall check with `particles_pass_doors`.
+pub fn crosses_wall<M: PlanQueries + ?Sized>(map: &M, from: Vec2, to: Vec2, step_m: f64) -> bool {
+    let d = to - from;
+    let len = d.norm();
+    let step = if step_m > 0.0 { step_m } else { 0.05 };
+    let n = (len / step).ceil() as usize;
+    (0..=n).any(|k| {
+        let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
+        map.feature_at(from + d * t) == Feature::Wall
+    })
 }
 
 impl PlanQueries for FloorMap {
@@ -627,6 +662,21 @@ mod tests {
         assert!(m.is_walkable(on.position));
     }
 
+    /// Particles may cross a door but not a wall.
+    #[test]
+    fn crosses_wall_ignores_doors() {
+        let m = two_rooms();
+        let (a, through_door, through_wall) = (
+            Vec2::new(4.6, 3.0),
+            Vec2::new(5.6, 3.0),
+            Vec2::new(5.6, 1.5),
+        );
+        assert!(!crosses_wall(&m, a, through_door, 0.05));
+        assert!(m.raycast(a, through_door, 0.05).is_some());
+        assert!(crosses_wall(&m, Vec2::new(4.6, 1.5), through_wall, 0.05));
+        assert!(!crosses_wall(&m, a, Vec2::new(4.0, 2.0), 0.05));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Whatever the step, the cloud and x_B, PPC leaves the position and
@@ -640,6 +690,7 @@ mod tests {
             seed in 0u64..1000,
             extensions in any::<bool>(),
             shift in any::<bool>(),
+            doors_ok in any::<bool>(),
         ) {
             let m = two_rooms();
             let prev = Vec2::new(px, py);
@@ -657,17 +708,18 @@ mod tests {
             let o = correct(&m, prev, x_hat, Some(Vec2::new(bx, by)), &fc.ppc);
             prop_assert!(m.is_walkable(o.position), "{:?} -> {:?}", prev, o);
             let before = pf.particles().to_vec();
-            apply_to_particles(&m, &mut pf, x_hat, &o, shift);
+            apply_to_particles_with_doors(&m, &mut pf, x_hat, &o, shift, doors_ok);
             prop_assert_eq!(pf.particles().len(), 200);
             if !shift {
                 // without eq. 44 particles on walkable ground stay where they were
                 for (a, b) in before.iter().zip(pf.particles()) {
-                    prop_assert!(!m.is_walkable(*a) || a == b, "{:?} moved to {:?}", a, b);
+                    let kept = m.is_walkable(*a) || (doors_ok && m.feature(*a) == Feature::Door);
+                    prop_assert!(!kept || a == b, "{:?} moved to {:?}", a, b);
                 }
             }
             for p in pf.particles() {
                 prop_assert!(m.feature(*p) != Feature::Wall, "particle {:?} in a wall", p);
-                prop_assert!(m.is_walkable(*p));
+                prop_assert!(doors_ok || m.is_walkable(*p));
             }
         }
     }

@@ -42,6 +42,9 @@ struct PathResult {
     walked_beta1: f64,
     leg_err_rad: Vec<f64>,
     engine_err_m: Vec<f64>,
+    /// Steps of the whole log, and those headed by the screen normal.
+    all_steps: u64,
+    upright_steps: u64,
 }
 
 fn main() -> Result<()> {
@@ -232,6 +235,8 @@ fn measure(name: &str, events: &[LogEvent], cfg: &PdrConfig) -> Result<Option<Pa
         walked_beta1,
         leg_err_rad,
         engine_err_m,
+        all_steps: pdr.stats().steps,
+        upright_steps: pdr.stats().upright_steps,
     }))
 }
 
@@ -296,6 +301,13 @@ fn summarise(label: &str, res: &[PathResult], cfg: &PdrConfig) {
             percentile(&deg(&per_path), 0.8)
         );
     }
+    let all: u64 = res.iter().map(|r| r.all_steps).sum();
+    let upright: u64 = res.iter().map(|r| r.upright_steps).sum();
+    println!(
+        "  forward axis {:?}: {upright} of {all} steps (whole logs) headed by the screen normal, in {} paths",
+        cfg.forward_axis,
+        res.iter().filter(|r| r.upright_steps > 0).count()
+    );
     let e: Vec<f64> = res
         .iter()
         .flat_map(|r| r.engine_err_m.iter().cloned())

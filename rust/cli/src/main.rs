@@ -14,13 +14,12 @@ mod import_overlay;
 mod import_raster;
 mod import_truth;
 mod map_check;
-mod plot;
 mod realism;
 mod replay;
 mod simulate;
-mod site_io;
 
 use clap::{Parser, Subcommand};
+use fpbp_cli::{plot, site_io};
 
 /// fpbp: floor-plan-assisted BLE + PDR indoor positioning.
 #[derive(Parser)]

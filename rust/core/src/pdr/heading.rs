@@ -8,7 +8,18 @@
 //! rotation-vector quaternion, and from then on the forward axis is rotated
 //! by the filter's orientation instead. Both are composed with R_E, so the
 //! yaw is in the MCS.
+//!
+//! Which device axis points where the walker goes ([`ForwardAxis`]): the
+//! paper takes the top of the screen (DCS y). That fails when the phone hangs
+//! in a swinging hand (top pointing down, screen facing forward): the top's
+//! floor projection is then short and flips between forward and backward
+//! with every swing. [`ForwardAxis::TiltAware`] keeps the top while the phone
+//! is held flat-ish and switches, with hysteresis ([`TiltSwitch`]), to the
+//! screen normal when the top is steep: -z with the top up (phone upright in
+//! front, screen towards the walker), +z with the top down (hanging hand,
+//! screen forward).
 
+use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Orientation source of the heading.
@@ -24,6 +35,75 @@ pub enum HeadingSource {
     /// Game rotation vector only (no magnetometer; yaw origin arbitrary, so
     /// headings are relative to where the phone pointed when it started).
     GameRotationVector,
+}
+
+/// Which device axis gives the walking direction.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ForwardAxis {
+    /// FP-BP eq. 32: the top of the screen, DCS y, always.
+    Top,
+    /// DCS y while the top is less steep than the upright thresholds; the
+    /// screen normal (-z top up, +z top down) while it is steeper.
+    TiltAware,
+}
+
+/// The upright state of [`ForwardAxis::TiltAware`], with hysteresis: upright
+/// once the top's elevation above or below the floor exceeds `enter`, back to
+/// the top axis once it falls below `exit` (`exit <= enter`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TiltSwitch {
+    enter_sin: f64,
+    exit_sin: f64,
+    upright: bool,
+}
+
+impl TiltSwitch {
+    /// Thresholds as elevations of the top axis, radians.
+    pub fn new(enter_rad: f64, exit_rad: f64) -> Self {
+        TiltSwitch {
+            enter_sin: enter_rad.sin(),
+            exit_sin: exit_rad.min(enter_rad).sin(),
+            upright: false,
+        }
+    }
+
+    /// Updates the state with `top_up`, the up component of the unit top
+    /// axis (sine of its elevation); returns whether the phone is upright.
+    /// Non-finite input leaves the state unchanged.
+    pub fn update(&mut self, top_up: f64) -> bool {
+        let e = top_up.abs();
+        if e.is_finite() {
+            if self.upright && e < self.exit_sin {
+                self.upright = false;
+            } else if !self.upright && e > self.enter_sin {
+                self.upright = true;
+            }
+        }
+        self.upright
+    }
+
+    /// Whether the last update left the phone upright.
+    pub fn upright(&self) -> bool {
+        self.upright
+    }
+}
+
+/// The device axis (in the DCS) that points forward for the orientation
+/// `map_from_device`: the top (y), or when `upright` the screen normal signed
+/// so that it points away from the walker (-z when the top points up, +z when
+/// it points down).
+pub fn forward_axis(map_from_device: &Matrix3<f64>, upright: bool) -> Vector3<f64> {
+    if upright {
+        let top_up = map_from_device[(2, 1)];
+        if top_up >= 0.0 {
+            -Vector3::z()
+        } else {
+            Vector3::z()
+        }
+    } else {
+        Vector3::y()
+    }
 }
 
 /// Tracks the k0 switch of [`HeadingSource::RotationVectorThenMadgwick`].
@@ -69,6 +149,42 @@ impl SwitchClock {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::UnitQuaternion;
+
+    #[test]
+    fn tilt_switch_has_hysteresis() {
+        let mut s = TiltSwitch::new(60f64.to_radians(), 45f64.to_radians());
+        let el = |deg: f64| deg.to_radians().sin();
+        let seq = [
+            30.0, 55.0, 61.0, 50.0, 46.0, 44.0, 55.0, -70.0, -50.0, -40.0,
+        ];
+        let got: Vec<bool> = seq.iter().map(|&d| s.update(el(d))).collect();
+        assert_eq!(
+            got,
+            [
+                false, false, true, true, true, false, false, true, true, false
+            ]
+        );
+        assert!(!s.update(f64::NAN));
+    }
+
+    #[test]
+    fn forward_axis_points_ahead_for_any_pitch_about_the_right_axis() {
+        // Walking north (ENU y); the phone pitched about its x axis (which
+        // points east, to the walker's right) by any angle from -100 to +100
+        // deg: flat (0), upright in front with the screen towards the walker
+        // (+90), hanging with the top down and the screen forward (-90).
+        for deg in (-100i32..=100).step_by(5) {
+            let q = UnitQuaternion::from_axis_angle(&Vector3::x_axis(), (deg as f64).to_radians());
+            let r = q.to_rotation_matrix().into_inner();
+            let mut sw = TiltSwitch::new(60f64.to_radians(), 45f64.to_radians());
+            let upright = sw.update(r[(2, 1)]);
+            assert_eq!(upright, deg.abs() > 60, "{deg}");
+            let d = r * forward_axis(&r, upright);
+            let yaw = d.y.atan2(d.x).to_degrees();
+            assert!((yaw - 90.0).abs() < 1e-6, "pitch {deg}: yaw {yaw}");
+        }
+    }
 
     #[test]
     fn switch_fires_once_at_k0() {

@@ -16,8 +16,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::events::{SensorData, SensorEvent};
 use crate::{Error, Result};
-pub use heading::HeadingSource;
-use heading::SwitchClock;
+pub use heading::{ForwardAxis, HeadingSource};
+use heading::{SwitchClock, TiltSwitch};
 use madgwick::MadgwickTracker;
 use steps::{StepDetector, StepParams};
 
@@ -49,6 +49,18 @@ pub struct PdrConfig {
     /// switches from the rotation vector to Madgwick, seconds; `null`: never.
     /// Default 5.0.
     pub switch_to_madgwick_after_s: Option<f64>,
+    /// Which device axis points forward: `top` (eq. 32, DCS y) or
+    /// `tilt_aware` (the screen normal while the phone is upright or hangs
+    /// top-down, e.g. in a swinging hand). Default `tilt_aware`.
+    pub forward_axis: ForwardAxis,
+    /// `tilt_aware`: elevation of the top axis above or below the floor
+    /// beyond which the screen normal gives the heading, radians. Default
+    /// 1.0472 (60 deg).
+    pub upright_enter_rad: f64,
+    /// `tilt_aware`: elevation below which the top axis gives the heading
+    /// again (hysteresis; at most `upright_enter_rad`), radians. Default
+    /// 0.7854 (45 deg).
+    pub upright_exit_rad: f64,
     /// Madgwick gain beta, rad/s (the paper's [45] suggests 0.041). Default 0.01.
     pub madgwick_beta: f64,
     /// Whether Madgwick uses the magnetometer (9-axis) or not (6-axis). Default true.
@@ -71,6 +83,9 @@ impl Default for PdrConfig {
             max_gap_s: 0.5,
             heading_source: HeadingSource::RotationVectorThenMadgwick,
             switch_to_madgwick_after_s: Some(5.0),
+            forward_axis: ForwardAxis::TiltAware,
+            upright_enter_rad: 60f64.to_radians(),
+            upright_exit_rad: 45f64.to_radians(),
             madgwick_beta: 0.01,
             madgwick_use_magnetometer: true,
             start_accuracy_m: 1.0,
@@ -113,6 +128,27 @@ impl PdrConfig {
         positive("max_gap_s", self.max_gap_s)?;
         if let Some(k0) = self.switch_to_madgwick_after_s {
             non_negative("switch_to_madgwick_after_s", k0)?;
+        }
+        if !(self.upright_enter_rad.is_finite()
+            && self.upright_enter_rad > 0.0
+            && self.upright_enter_rad < std::f64::consts::FRAC_PI_2)
+        {
+            return Err(Error::config(
+                "pdr.upright_enter_rad",
+                format!("must be in (0, pi/2), got {}", self.upright_enter_rad),
+            ));
+        }
+        if !(self.upright_exit_rad.is_finite()
+            && self.upright_exit_rad > 0.0
+            && self.upright_exit_rad <= self.upright_enter_rad)
+        {
+            return Err(Error::config(
+                "pdr.upright_exit_rad",
+                format!(
+                    "must be in (0, upright_enter_rad = {}], got {}",
+                    self.upright_enter_rad, self.upright_exit_rad
+                ),
+            ));
         }
         non_negative("madgwick_beta", self.madgwick_beta)?;
         non_negative("start_accuracy_m", self.start_accuracy_m)?;
@@ -159,6 +195,9 @@ pub struct PdrStats {
     pub gaps: u64,
     /// Steps detected so far.
     pub steps: u64,
+    /// Of those, steps whose heading came from the screen normal (phone
+    /// upright or hanging; `forward_axis: tilt_aware`).
+    pub upright_steps: u64,
 }
 
 /// The PDR pipeline of one walker.
@@ -170,6 +209,7 @@ pub struct Pdr {
     grv: Option<UnitQuaternion<f64>>,
     madgwick: MadgwickTracker,
     switch: SwitchClock,
+    tilt: TiltSwitch,
     detector: StepDetector,
     pending: Vec<Step>,
     stats: PdrStats,
@@ -194,6 +234,7 @@ impl Pdr {
                 cfg.madgwick_use_magnetometer,
             ),
             switch: SwitchClock::new(k0),
+            tilt: TiltSwitch::new(cfg.upright_enter_rad, cfg.upright_exit_rad),
             detector: StepDetector::new(cfg.step_params()),
             pending: Vec::new(),
             stats: PdrStats::default(),
@@ -203,6 +244,12 @@ impl Pdr {
     /// Feeds one sensor sample. Never fails: unusable samples are counted.
     pub fn on_sensor(&mut self, e: &SensorEvent) {
         let fired = self.switch.tick(e.t_ns);
+        let turned = matches!(
+            e.data,
+            SensorData::Gyroscope(_)
+                | SensorData::RotationVector(_)
+                | SensorData::GameRotationVector(_)
+        );
         match e.data {
             SensorData::Accelerometer(a) => {
                 let a = Vector3::from(a);
@@ -234,6 +281,12 @@ impl Pdr {
             // k0: Madgwick continues from the rotation vector's orientation (theta_k0).
             self.madgwick.set_orientation(rv);
         }
+        if (turned || fired)
+            && self.cfg.forward_axis == ForwardAxis::TiltAware
+            && let Some(r_d) = self.heading_matrix()
+        {
+            self.tilt.update(r_d[(2, 1)]);
+        }
     }
 
     fn on_accelerometer(&mut self, t_ns: i64, a: Vector3<f64>) {
@@ -253,6 +306,7 @@ impl Pdr {
             && let Some(yaw) = self.yaw_rad()
         {
             self.stats.steps += 1;
+            self.stats.upright_steps += u64::from(self.tilt.upright());
             self.pending.push(Step {
                 t_ns: p.t_ns,
                 length_m: steps::step_length_m(self.cfg.step_length_beta, p.z_pp),
@@ -282,9 +336,18 @@ impl Pdr {
     /// Current walking heading in the MCS, radians (eq. 33); `None` before any
     /// orientation is known or while the phone's top points straight up/down.
     pub fn yaw_rad(&self) -> Option<f64> {
+        let r_d = self.heading_matrix()?;
+        let axis = heading::forward_axis(&r_d, self.tilt.upright());
+        orientation::axis_yaw_rad(&r_d, &axis)
+    }
+
+    /// R_D (DCS -> MCS) of the heading orientation.
+    fn heading_matrix(&self) -> Option<Matrix3<f64>> {
         let q = self.heading_orientation()?;
-        let r_d = orientation::map_from_device(&self.r_e, &q.to_rotation_matrix().into_inner());
-        orientation::forward_yaw_rad(&r_d)
+        Some(orientation::map_from_device(
+            &self.r_e,
+            &q.to_rotation_matrix().into_inner(),
+        ))
     }
 
     /// Removes and returns the steps detected since the last call, in time order.
@@ -465,6 +528,81 @@ mod tests {
         }
     }
 
+    /// A phone hanging in a swinging hand: top down, screen forward, the arm
+    /// swinging +-0.35 rad about the walker's right-left axis at half the
+    /// step frequency (1.8 steps/s), walking at ENU yaw `walk_yaw`.
+    fn swinging_walk(pdr: &mut Pdr, secs: f64, walk_yaw: f64) -> Vec<Step> {
+        let n = (secs * 50.0) as i64;
+        let mut out = Vec::new();
+        let w = std::f64::consts::PI * 1.8;
+        for i in 0..n {
+            let t_ns = i * 20_000_000;
+            let t = t_ns as f64 * 1e-9;
+            let swing = |t: f64| 0.35 * (w * t).sin();
+            let att = |t: f64| {
+                UnitQuaternion::from_axis_angle(&Vector3::z_axis(), walk_yaw - FRAC_PI_2)
+                    * UnitQuaternion::from_axis_angle(&Vector3::x_axis(), -FRAC_PI_2 + swing(t))
+            };
+            let q = att(t);
+            // Body bounce at the step frequency; the arm's own acceleration is
+            // left out (the test is about the axis, not the step detector).
+            let acc_enu = Vector3::new(0.0, 0.0, 9.81 + 2.0 * (2.0 * w * t).sin());
+            let rate = 0.35 * w * (w * t).cos();
+            let inv = q.inverse();
+            pdr.on_sensor(&ev(t_ns, SensorData::Accelerometer((inv * acc_enu).into())));
+            pdr.on_sensor(&ev(
+                t_ns,
+                SensorData::Magnetometer((inv * Vector3::new(0.0, 30.0, -40.0)).into()),
+            ));
+            pdr.on_sensor(&ev(t_ns, SensorData::Gyroscope([rate, 0.0, 0.0])));
+            pdr.on_sensor(&ev(
+                t_ns,
+                SensorData::RotationVector(orientation::to_android(&q)),
+            ));
+            out.extend(pdr.take_steps());
+        }
+        out
+    }
+
+    #[test]
+    fn swinging_hand_heading_follows_the_walk_with_the_tilt_aware_axis() {
+        let walk_yaw = 30f64.to_radians();
+        for source in [
+            HeadingSource::RotationVectorThenMadgwick,
+            HeadingSource::RotationVector,
+        ] {
+            let tilt = PdrConfig {
+                heading_source: source,
+                ..PdrConfig::default()
+            };
+            let mut pdr = Pdr::new(&tilt, 0.0);
+            let steps = swinging_walk(&mut pdr, 20.0, walk_yaw);
+            assert!(steps.len() >= 30, "{}", steps.len());
+            assert_eq!(pdr.stats().upright_steps, steps.len() as u64);
+            for s in &steps {
+                let err = crate::geometry::wrap_angle(s.yaw_rad - walk_yaw).to_degrees();
+                assert!(err.abs() < 2.0, "{source:?}: err {err} deg");
+            }
+            // The paper's axis (the top of the screen) flips with the swing.
+            let top = PdrConfig {
+                forward_axis: ForwardAxis::Top,
+                ..tilt
+            };
+            let mut pdr = Pdr::new(&top, 0.0);
+            let steps = swinging_walk(&mut pdr, 20.0, walk_yaw);
+            let backwards = steps
+                .iter()
+                .filter(|s| crate::geometry::wrap_angle(s.yaw_rad - walk_yaw).abs() > FRAC_PI_2)
+                .count();
+            assert!(
+                backwards * 4 > steps.len(),
+                "{backwards} of {} steps backwards",
+                steps.len()
+            );
+            assert_eq!(pdr.stats().upright_steps, 0);
+        }
+    }
+
     #[test]
     fn without_rotation_vector_madgwick_gives_heading() {
         let mut pdr = Pdr::new(&PdrConfig::default(), 0.0);
@@ -514,6 +652,7 @@ mod tests {
         fn garbage_streams_never_panic_and_outputs_stay_sane(
             evs in proptest::collection::vec((-50i64..2_000, any_sensor_data()), 0..400),
             source in 0usize..4,
+            tilt_aware in proptest::bool::ANY,
         ) {
             let heading_source = [
                 HeadingSource::RotationVectorThenMadgwick,
@@ -521,7 +660,8 @@ mod tests {
                 HeadingSource::Madgwick,
                 HeadingSource::GameRotationVector,
             ][source];
-            let cfg = PdrConfig { heading_source, switch_to_madgwick_after_s: Some(0.5), ..PdrConfig::default() };
+            let forward_axis = if tilt_aware { ForwardAxis::TiltAware } else { ForwardAxis::Top };
+            let cfg = PdrConfig { heading_source, forward_axis, switch_to_madgwick_after_s: Some(0.5), ..PdrConfig::default() };
             let mut pdr = Pdr::new(&cfg, 0.3);
             let mut t = 0i64;
             for (dt_ms, data) in evs {
@@ -547,6 +687,18 @@ mod tests {
         };
         let msg = bad.validate().unwrap_err().to_string();
         assert!(msg.contains("pdr.step_length_beta"), "{msg}");
+        let bad = PdrConfig {
+            upright_exit_rad: 1.2,
+            ..PdrConfig::default()
+        };
+        let msg = bad.validate().unwrap_err().to_string();
+        assert!(msg.contains("pdr.upright_exit_rad"), "{msg}");
+        let bad = PdrConfig {
+            upright_enter_rad: 2.0,
+            ..PdrConfig::default()
+        };
+        let msg = bad.validate().unwrap_err().to_string();
+        assert!(msg.contains("pdr.upright_enter_rad"), "{msg}");
         let parsed: PdrConfig =
             serde_json::from_str(r#"{"z_th_mps2": 1.5, "heading_source": "madgwick"}"#).unwrap();
         assert_eq!(parsed.z_th_mps2, 1.5);

@@ -66,7 +66,13 @@ pub fn from_android(q: [f64; 4]) -> Option<UnitQuaternion<f64>> {
 /// normalised, theta = atan2(d_y, d_x). `None` when the forward axis is
 /// (nearly) vertical, i.e. the projection has no direction.
 pub fn forward_yaw_rad(map_from_device: &Matrix3<f64>) -> Option<f64> {
-    let d = map_from_device * Vector3::new(0.0, 1.0, 0.0);
+    axis_yaw_rad(map_from_device, &Vector3::new(0.0, 1.0, 0.0))
+}
+
+/// Yaw in the MCS of the floor projection of the DCS direction `axis`:
+/// atan2(d_y, d_x) of d = R_D axis; `None` when d is (nearly) vertical.
+pub fn axis_yaw_rad(map_from_device: &Matrix3<f64>, axis: &Vector3<f64>) -> Option<f64> {
+    let d = map_from_device * axis;
     let h = d.x.hypot(d.y);
     if h < 1e-6 {
         return None;

@@ -548,4 +548,45 @@ mod tests {
         assert!(a.is_some());
         assert_eq!(a, b);
     }
+
+    #[test]
+    fn survey_database_is_used_when_given() {
+        use crate::engine::{EngineData, build_engine_with};
+        use crate::fingerprint::SurveyBuilder;
+        use crate::fingerprint::survey::tests as st;
+        let site = st::site();
+        let cfg = EngineConfig {
+            pdr: st::rv_pdr(),
+            ..EngineConfig::default()
+        };
+        let mut b = SurveyBuilder::new(&site, &cfg.ble, &cfg.pdr, &cfg.ekf.fingerprint);
+        b.add_log(&st::straight_walk(1.4, 20.0).0);
+        let set = Arc::new(b.finish());
+        // every survey point lies on y = 12.5: fixes from this DB can only be on that line
+        let data = EngineData {
+            fingerprints: Some(set),
+        };
+        let mut e = build_engine_with("robust-ekf", site.clone(), &cfg, None, &data).unwrap();
+        let (ev, truth) = st::straight_walk(1.0, 20.0);
+        let out = replay(e.as_mut(), ev);
+        let fix = e.ble_position().unwrap();
+        assert!((fix.y_m - 12.5).abs() < 1e-6, "{fix:?}");
+        let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+        assert!(!errs.is_empty());
+        let end = e.pose().unwrap();
+        assert!(
+            (Vec2::new(end.x_m, end.y_m) - truth(end.t_ns)).norm() < 3.0,
+            "{end:?}"
+        );
+        // an empty set gives no fix at all
+        let empty = EngineData {
+            fingerprints: Some(Arc::new(FingerprintSet {
+                source: crate::fingerprint::store::Source::Survey,
+                floors: Default::default(),
+            })),
+        };
+        let mut e = build_engine_with("robust-ekf", site, &cfg, None, &empty).unwrap();
+        replay(e.as_mut(), st::straight_walk(1.0, 5.0).0);
+        assert!(e.pose().is_none() && e.stats().no_fix > 0);
+    }
 }

@@ -258,7 +258,13 @@ impl FusionSide {
                     let n = entry.1.len() as f64;
                     let mean = entry.1.iter().sum::<Vec2>() / n;
                     self.floor = fix.floor;
-                    self.start(mean, Some(t_ns), false);
+                    // Floors share the site's x, y frame: the walker changes
+                    // floor where the track is (stairs, lift), not at x_B.
+                    let at = match self.prev {
+                        Some(p) if self.cfg.floor_change_keeps_position => p,
+                        _ => mean,
+                    };
+                    self.start(at, Some(t_ns), false);
                 }
             }
             return None;
@@ -765,5 +771,48 @@ mod tests {
         cfg.fusion.relocalize_after_given_start = true;
         let (p, n, _) = run(&cfg);
         assert!(p.x_m > 10.3 && n == 1, "{p:?} {n}");
+    }
+
+    /// A floor change restarts at the mean of the other floor's x_B, or at
+    /// the track's x, y with `floor_change_keeps_position`.
+    #[test]
+    fn floor_change_restart_point() {
+        let one = two_room_site();
+        let spec: SiteSpec = serde_json::from_str(
+            r#"{"format": "fpbp-site", "version": 1, "name": "two floors",
+                "floors": [{"id": 0, "open_area_m": [20.0, 10.0]},
+                           {"id": 1, "open_area_m": [20.0, 10.0]}]}"#,
+        )
+        .unwrap();
+        let site = Arc::new(Site {
+            spec,
+            floors: vec![one.floors[0].clone(), one.floors[0].clone()],
+        });
+        let run = |keep: bool| {
+            let mut cfg = EngineConfig::default();
+            cfg.fusion.floor_change_keeps_position = keep;
+            let init = InitialPosition {
+                x_m: 5.0,
+                y_m: 5.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            let mut side = FusionSide::new(Arc::clone(&site), &cfg, true, Some(init)).unwrap();
+            for k in 1..=4i64 {
+                let t = k * 1_000_000_000;
+                let f = BleFix {
+                    floor: 1,
+                    ..fix(t, 15.0, 5.0)
+                };
+                side.run_steps(t, Some(f), &[(0.1, 0.0)]);
+            }
+            side.pose().unwrap()
+        };
+        let moved = run(false);
+        assert_eq!(moved.floor, 1);
+        assert!(moved.x_m > 12.0, "{moved:?}");
+        let kept = run(true);
+        assert_eq!(kept.floor, 1);
+        assert!(kept.x_m < 8.0, "{kept:?}");
     }
 }

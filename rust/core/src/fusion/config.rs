@@ -225,6 +225,11 @@ pub struct FusionConfig {
     /// rooms only through PPC's eq. 44 shift. Default true (measured on the
     /// demo logs, docs/fusion.md).
     pub particles_pass_doors: bool,
+    /// Whether a floor change (`init_ble_fixes` fresh x_B on another floor)
+    /// restarts the filter at the track's last x, y (the floors share the
+    /// site frame) instead of at the mean of those x_B. Default false
+    /// (measured in docs/fusion.md).
+    pub floor_change_keeps_position: bool,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -252,6 +257,7 @@ impl Default for FusionConfig {
             room_switch_mass: 0.6,
             weight_each_fix_once: false,
             particles_pass_doors: true,
+            floor_change_keeps_position: false,
             ppc: PpcConfig::default(),
         }
     }

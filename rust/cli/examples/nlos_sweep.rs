@@ -22,29 +22,15 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use anyhow::{Context, Result, anyhow, bail};
+use fpbp_cli::plot::{LegendPosition, LineChart, lines_png};
+use fpbp_cli::site_io::load_site;
 use fpbp_core::ble::nlos::NlosGmlMode;
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
 use fpbp_core::events::LogEvent;
-use fpbp_core::site::{Site, SiteSpec};
 use fpbp_sim::{SimProfile, SimRequest};
-use plotters::prelude::*;
-use plotters::style::FontStyle;
-
-static FONT: &[u8] = include_bytes!("../assets/DejaVuSans.ttf");
-
-fn load_site(path: &Path) -> Result<Arc<Site>> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {name}"))?;
-    let spec = SiteSpec::from_json(&bytes, &name)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    Ok(Arc::new(Site::build(spec, &name, &mut |p: &str| {
-        std::fs::read(dir.join(p))
-    })?))
-}
 
 fn engine_config(name: &str, seed: u64) -> (String, EngineConfig) {
     let mut cfg = EngineConfig {
@@ -220,65 +206,20 @@ fn main() -> Result<()> {
 }
 
 fn plot(path: &Path, series: &[(String, Vec<(f64, f64)>)]) -> Result<()> {
-    plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
-        .map_err(|_| anyhow!("font"))?;
     let y_max = series
         .iter()
         .flat_map(|(_, v)| v.iter().map(|p| p.1))
         .filter(|y| y.is_finite())
         .fold(1.0f64, f64::max)
         * 1.1;
-    let (w, h) = (900u32, 600u32);
-    let mut buf = vec![255u8; (w * h * 3) as usize];
-    {
-        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption("RMSE vs NLOS rate (simulated)", ("sans-serif", 18))
-            .margin(15)
-            .x_label_area_size(35)
-            .y_label_area_size(50)
-            .build_cartesian_2d(0.0..1.0, 0.0..y_max)
-            .map_err(|e| anyhow!("{e}"))?;
-        chart
-            .configure_mesh()
-            .x_desc("NLOS rate")
-            .y_desc("RMSE (m)")
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
-        let palette = [
-            RGBColor(31, 119, 180),
-            RGBColor(255, 127, 14),
-            RGBColor(44, 160, 44),
-            RGBColor(148, 103, 189),
-            RGBColor(140, 86, 75),
-            RGBColor(227, 119, 194),
-            RGBColor(127, 127, 127),
-        ];
-        for (i, (label, pts)) in series.iter().enumerate() {
-            let c = palette[i % palette.len()];
-            chart
-                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                .map_err(|e| anyhow!("{e}"))?
-                .label(label.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
-                });
-            chart
-                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
-                .map_err(|e| anyhow!("{e}"))?;
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperLeft)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow!("{e}"))?;
-    }
-    let img = image::RgbImage::from_raw(w, h, buf).ok_or_else(|| anyhow!("image buffer"))?;
-    img.save(path)
-        .with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    let spec = LineChart {
+        title: "RMSE vs NLOS rate (simulated)",
+        x_desc: "NLOS rate",
+        y_desc: "RMSE (m)",
+        x_range: 0.0..1.0,
+        y_range: 0.0..y_max,
+        markers: true,
+        legend: LegendPosition::UpperLeft,
+    };
+    lines_png(path, &spec, series)
 }

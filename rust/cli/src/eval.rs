@@ -52,6 +52,9 @@ pub struct Args {
     /// Fail on the first malformed log line.
     #[arg(long)]
     pub strict: bool,
+    /// Fingerprint database for `robust-ekf` (`fpbp fingerprint build`); default: the site's model database.
+    #[arg(long)]
+    pub fingerprints: Option<PathBuf>,
 }
 
 /// Applies the split to `logs` sorted by file name.
@@ -83,7 +86,22 @@ struct EvalMetrics<'a> {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
-    let metrics = run_with(&args, &common::core_builder, true)?;
+    let data = crate::fingerprint::engine_data(
+        args.fingerprints.as_deref(),
+        &args.engine,
+        &common::load_site(&args.site)?,
+        &common::load_config(args.config.as_deref(), args.seed)?,
+    )?;
+    let build = move |name: &str,
+                      site: std::sync::Arc<fpbp_core::site::Site>,
+                      cfg: &fpbp_core::engine::EngineConfig,
+                      init: Option<fpbp_core::engine::InitialPosition>|
+          -> anyhow::Result<Box<dyn fpbp_core::engine::Engine>> {
+        Ok(fpbp_core::engine::build_engine_with(
+            name, site, cfg, init, &data,
+        )?)
+    };
+    let metrics = run_with(&args, &build, true)?;
     print_table(&metrics);
     println!(
         "wrote {} and {} ({:.1} s)",
@@ -266,6 +284,7 @@ mod tests {
             seed: None,
             floor: None,
             strict: false,
+            fingerprints: None,
         };
         let ms = run_with(&args, &builder, false).unwrap();
         assert_eq!(ms.len(), 2);
@@ -344,6 +363,7 @@ mod tests {
             seed: None,
             floor: None,
             strict: true,
+            fingerprints: None,
         };
         let ms = run_with(&args, &common::core_builder, false).unwrap();
         let m = &ms[0];

@@ -5,6 +5,7 @@ mod calibrate;
 mod common;
 mod demo;
 mod eval;
+mod fingerprint;
 mod import;
 mod import_geojson;
 mod import_ilc;
@@ -13,13 +14,12 @@ mod import_overlay;
 mod import_raster;
 mod import_truth;
 mod map_check;
-mod plot;
 mod realism;
 mod replay;
 mod simulate;
-mod site_io;
 
 use clap::{Parser, Subcommand};
+use fpbp_cli::{plot, site_io};
 
 /// fpbp: floor-plan-assisted BLE + PDR indoor positioning.
 #[derive(Parser)]
@@ -53,6 +53,11 @@ enum Command {
     },
     /// The main job: every engine on the demo site and its shipped logs.
     Demo(demo::Args),
+    /// Fingerprint databases for robust-ekf (walked survey logs).
+    Fingerprint {
+        #[command(subcommand)]
+        command: fingerprint::Command,
+    },
 }
 
 #[derive(Subcommand)]
@@ -75,6 +80,7 @@ fn main() {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Import { command } => import::run(command),
         Command::Demo(a) => demo::run(a),
+        Command::Fingerprint { command } => fingerprint::run(command),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -189,35 +189,85 @@ pub fn track_png(path: &Path, plot: &TrackPlot) -> anyhow::Result<()> {
     save_rgb(path, w, h, buf)
 }
 
-/// Draws the empirical CDF of each series' errors (metres) into a PNG.
-pub fn cdf_png(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> anyhow::Result<()> {
+/// Where a chart's legend goes.
+pub use plotters::chart::SeriesLabelPosition as LegendPosition;
+
+/// A line chart: axis titles, ranges and where the legend goes.
+#[derive(Debug, Clone)]
+pub struct LineChart<'a> {
+    pub title: &'a str,
+    pub x_desc: &'a str,
+    pub y_desc: &'a str,
+    pub x_range: std::ops::Range<f64>,
+    pub y_range: std::ops::Range<f64>,
+    /// Also mark every point with a dot (for sparse series such as a sweep).
+    pub markers: bool,
+    pub legend: LegendPosition,
+}
+
+/// Draws named polylines into a 900 x 600 PNG at `path`.
+pub fn lines_png(
+    path: &Path,
+    chart_spec: &LineChart,
+    series: &[(String, Vec<(f64, f64)>)],
+) -> anyhow::Result<()> {
     ensure_font()?;
-    let x_max = series
-        .iter()
-        .flat_map(|(_, v)| v.iter().copied())
-        .filter(|e| e.is_finite())
-        .fold(1.0f64, f64::max)
-        * 1.05;
     let (w, h) = (900u32, 600u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| anyhow!("{e}"))?;
         let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
+            .caption(chart_spec.title, ("sans-serif", 18))
             .margin(15)
             .x_label_area_size(35)
             .y_label_area_size(50)
-            .build_cartesian_2d(0.0..x_max, 0.0..1.0)
+            .build_cartesian_2d(chart_spec.x_range.clone(), chart_spec.y_range.clone())
             .map_err(|e| anyhow!("{e}"))?;
         chart
             .configure_mesh()
-            .x_desc("error (m)")
-            .y_desc("fraction of points")
+            .x_desc(chart_spec.x_desc)
+            .y_desc(chart_spec.y_desc)
             .draw()
             .map_err(|e| anyhow!("{e}"))?;
-        for (i, (label, errors)) in series.iter().enumerate() {
+        for (i, (label, pts)) in series.iter().enumerate() {
             let c = PALETTE[i % PALETTE.len()];
+            chart
+                .draw_series(LineSeries::new(pts.iter().copied(), c.stroke_width(2)))
+                .map_err(|e| anyhow!("{e}"))?
+                .label(label.clone())
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+            if chart_spec.markers {
+                chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+                    .map_err(|e| anyhow!("{e}"))?;
+            }
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .position(chart_spec.legend.clone())
+            .draw()
+            .map_err(|e| anyhow!("{e}"))?;
+        root.present().map_err(|e| anyhow!("{e}"))?;
+    }
+    save_rgb(path, w, h, buf)
+}
+
+/// Draws the empirical CDF of each series' errors (metres) into a PNG.
+pub fn cdf_png(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> anyhow::Result<()> {
+    let x_max = series
+        .iter()
+        .flat_map(|(_, v)| v.iter().copied())
+        .filter(|e| e.is_finite())
+        .fold(1.0f64, f64::max)
+        * 1.05;
+    let steps: Vec<(String, Vec<(f64, f64)>)> = series
+        .iter()
+        .map(|(label, errors)| {
             let mut v: Vec<f64> = errors.iter().copied().filter(|e| e.is_finite()).collect();
             v.sort_by(f64::total_cmp);
             let n = v.len().max(1) as f64;
@@ -229,24 +279,19 @@ pub fn cdf_png(path: &Path, title: &str, series: &[(String, Vec<f64>)]) -> anyho
             if let Some(last) = v.last() {
                 pts.push((x_max.max(*last), 1.0));
             }
-            chart
-                .draw_series(LineSeries::new(pts, c.stroke_width(2)))
-                .map_err(|e| anyhow!("{e}"))?
-                .label(format!("{label} (n={})", v.len()))
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
-                });
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::LowerRight)
-            .draw()
-            .map_err(|e| anyhow!("{e}"))?;
-        root.present().map_err(|e| anyhow!("{e}"))?;
-    }
-    save_rgb(path, w, h, buf)
+            (format!("{label} (n={})", v.len()), pts)
+        })
+        .collect();
+    let spec = LineChart {
+        title,
+        x_desc: "error (m)",
+        y_desc: "fraction of points",
+        x_range: 0.0..x_max,
+        y_range: 0.0..1.0,
+        markers: false,
+        legend: LegendPosition::LowerRight,
+    };
+    lines_png(path, &spec, &steps)
 }
 
 #[cfg(test)]

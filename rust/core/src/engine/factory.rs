@@ -21,6 +21,16 @@ pub const ENGINE_NAMES: &[&str] = &[
     "tc-ekf",
 ];
 
+/// Data some engines can use besides site and config (handed as parsed
+/// structs: the core does no I/O).
+#[derive(Debug, Clone, Default)]
+pub struct EngineData {
+    /// Fingerprint databases for `robust-ekf` (e.g. a walked survey database,
+    /// [`crate::fingerprint::FingerprintSet::from_json`]); without them it
+    /// builds model databases from the site.
+    pub fingerprints: Option<Arc<crate::fingerprint::FingerprintSet>>,
+}
+
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
 pub fn build_engine(
@@ -28,6 +38,17 @@ pub fn build_engine(
     site: Arc<Site>,
     config: &EngineConfig,
     init: Option<InitialPosition>,
+) -> Result<Box<dyn Engine>> {
+    build_engine_with(name, site, config, init, &EngineData::default())
+}
+
+/// [`build_engine`] with extra data (engines that do not use it ignore it).
+pub fn build_engine_with(
+    name: &str,
+    site: Arc<Site>,
+    config: &EngineConfig,
+    init: Option<InitialPosition>,
+    data: &EngineData,
 ) -> Result<Box<dyn Engine>> {
     config.validate()?;
     if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
@@ -51,9 +72,15 @@ pub fn build_engine(
         "ppsa" => Ok(Box::new(crate::engines::ppsa::PpsaEngine::new(
             site, config, init,
         )?)),
-        "robust-ekf" => Ok(Box::new(crate::engines::robust_ekf::RobustEkfEngine::new(
-            site, config, init,
-        )?)),
+        "robust-ekf" => Ok(Box::new(match &data.fingerprints {
+            Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+                site,
+                config,
+                init,
+                fp.clone(),
+            )?,
+            None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
+        })),
         "tc-ekf" => Ok(Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
             site, config, init,
         )?)),

@@ -16,7 +16,7 @@ use serde::{Deserialize, Serialize};
 use crate::events::{BleObservation, GnssFix, SensorEvent};
 
 pub use config::{EngineConfig, TaskConfig};
-pub use factory::{ENGINE_NAMES, build_engine};
+pub use factory::{ENGINE_NAMES, EngineData, build_engine, build_engine_with};
 
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

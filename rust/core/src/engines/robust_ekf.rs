@@ -9,9 +9,11 @@
 //! task updates the position with the WKNN fix. Step length is the PDR's
 //! C * (Amax - Amin)^(1/4) with C = `pdr.step_length_beta`.
 //!
-//! The fingerprint database is built from the site's path-loss models at
-//! walkable grid points (eq. 6 applied to every point: no survey logs are
-//! shipped with the sites), clustered lazily the first time a floor is used.
+//! The fingerprint databases are a walked survey database when one is given
+//! ([`RobustEkfEngine::with_fingerprints`], built by
+//! [`crate::fingerprint::SurveyBuilder`]), else the site's path-loss models
+//! at walkable grid points (eq. 6 applied to every point); either way every
+//! floor is clustered before the first BLE task call.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -20,16 +22,13 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::Result;
 use crate::Vec2;
-use crate::ble::grid::rect_grid;
 use crate::ble::{BleConfig, BleFrontEnd};
 use crate::engine::Task as T;
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
 use crate::events::{BleObservation, SensorData, SensorEvent};
-use crate::fingerprint::db::DbBeacon;
-use crate::fingerprint::{FingerprintConfig, FingerprintDb, SubDatabases, wknn};
+use crate::fingerprint::{FingerprintSet, wknn};
 use crate::floor::FloorTracker;
 use crate::kalman::{EkfConfig, robust_update, wrap_pi};
-use crate::map::FloorMap;
 use crate::pdr::Pdr;
 use crate::site::Site;
 
@@ -41,63 +40,15 @@ const STILL_AFTER_S: f64 = 1.5;
 /// filter that has drifted away).
 const MAX_REJECTED_FIXES: u32 = 5;
 
-/// One floor's database and its sub-databases.
-struct FloorDb {
-    db: FingerprintDb,
-    sub: SubDatabases,
-}
-
-/// Builds the model fingerprint database of `floor` (None without beacons or walkable points).
-pub fn floor_database(
-    site: &Site,
-    front: &BleFrontEnd,
-    ble: &BleConfig,
-    cfg: &FingerprintConfig,
-    floor: i32,
-) -> Option<FingerprintDb> {
-    let map = site.floor(floor)?;
-    let beacons: Vec<DbBeacon> = front
-        .registry()
-        .beacons()
-        .iter()
-        .enumerate()
-        .filter(|(_, b)| b.floor == floor)
-        .map(|(i, b)| DbBeacon {
-            registry_index: i,
-            pos: b.pos,
-            dz_m: b.z_m - ble.phone_height_m,
-            model: b.model,
-        })
-        .collect();
-    if beacons.is_empty() {
-        return None;
-    }
-    let mut step = cfg.grid_step_m;
-    let mut grid = walkable_grid(map, step);
-    while grid.len() > cfg.max_points_per_floor {
-        step *= 1.25;
-        grid = walkable_grid(map, step);
-    }
-    if grid.is_empty() {
-        return None;
-    }
-    Some(FingerprintDb::from_model(
-        beacons,
-        &grid,
-        cfg.missing_rssi_dbm,
-        ble.min_distance_m,
-    ))
-}
-
 /// The robust EKF engine.
 pub struct RobustEkfEngine {
-    site: Arc<Site>,
     ble_cfg: BleConfig,
     cfg: EkfConfig,
     front: BleFrontEnd,
     pdr: Pdr,
     floors: FloorTracker,
-    dbs: BTreeMap<i32, Option<FloorDb>>,
+    /// Clustered databases of every floor (survey or model), built before the first call.
+    dbs: Arc<FingerprintSet>,
     x: DVector<f64>,
     p: DMatrix<f64>,
     initialised: bool,
@@ -114,11 +65,31 @@ pub struct RobustEkfEngine {
 }
 
 impl RobustEkfEngine {
-    /// Builds the engine; `init` (optional) seeds position, floor and heading.
+    /// Builds the engine on the site's model fingerprint databases (every
+    /// floor clustered now); `init` (optional) seeds position, floor and heading.
     pub fn new(
         site: Arc<Site>,
         config: &EngineConfig,
         init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        config.validate()?;
+        let dbs = Arc::new(FingerprintSet::model(
+            &site,
+            &config.ble,
+            &config.ekf.fingerprint,
+        ));
+        Self::with_fingerprints(site, config, init, dbs)
+    }
+
+    /// Builds the engine on given fingerprint databases (e.g. a survey
+    /// database loaded with [`FingerprintSet::from_json`]; shared between
+    /// engines, resolved against the same site). Floors without a database
+    /// give no fix.
+    pub fn with_fingerprints(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+        dbs: Arc<FingerprintSet>,
     ) -> Result<Self> {
         config.validate()?;
         let front = BleFrontEnd::new(&config.ble, &site);
@@ -143,7 +114,7 @@ impl RobustEkfEngine {
             cfg: config.ekf.clone(),
             front,
             floors,
-            dbs: BTreeMap::new(),
+            dbs,
             x,
             p,
             initialised,
@@ -156,7 +127,6 @@ impl RobustEkfEngine {
             ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
-            site,
         })
     }
 
@@ -174,21 +144,8 @@ impl RobustEkfEngine {
         } else {
             ble_floor
         };
-        let fcfg = self.cfg.fingerprint.clone();
-        let entry = self.dbs.entry(floor).or_insert_with(|| {
-            floor_database(&self.site, &self.front, &self.ble_cfg, &fcfg, floor).map(|db| {
-                let vecs: Vec<Vec<f64>> = db.points.iter().map(|p| p.rssi_dbm.clone()).collect();
-                let sub = SubDatabases::build(
-                    &vecs,
-                    fcfg.ap_damping,
-                    fcfg.ap_iterations,
-                    fcfg.density_k,
-                    fcfg.outlier_relative_density,
-                );
-                FloorDb { db, sub }
-            })
-        });
-        let fdb = entry.as_ref()?;
+        let fcfg = &self.cfg.fingerprint;
+        let fdb = self.dbs.floors.get(&floor)?;
         // the strongest heard beacons (current() is sorted strongest first)
         let heard: BTreeMap<usize, f64> = beacons
             .iter()
@@ -394,15 +351,6 @@ impl Engine for RobustEkfEngine {
             ..self.stats.clone()
         }
     }
-}
-
-/// The walkable points of a rectangular grid over `map` at `interval_m`
-/// (the fingerprint reference points; coarser than the GML grid on large floors).
-fn walkable_grid(map: &FloorMap, interval_m: f64) -> Vec<Vec2> {
-    rect_grid(map.width_m(), map.height_m(), interval_m)
-        .into_iter()
-        .filter(|p| map.is_walkable(*p))
-        .collect()
 }
 
 #[cfg(test)]

@@ -193,27 +193,35 @@ impl SubDatabases {
             }
         }
         let members = group(&label, nclusters);
-        let dim = points.first().map_or(0, |p| p.len());
-        let centres = members
-            .iter()
-            .map(|m| {
-                let mut c = vec![0.0; dim];
-                for &i in m {
-                    for (cj, pj) in c.iter_mut().zip(&points[i]) {
-                        *cj += pj;
-                    }
-                }
-                let n = m.len().max(1) as f64;
-                c.iter_mut().for_each(|v| *v /= n);
-                c
-            })
-            .collect();
+        let centres = centres(points, &members);
         SubDatabases {
             label,
             members,
             centres,
             reassigned,
         }
+    }
+
+    /// Sub-databases from stored labels (cluster of each point, as in a saved
+    /// database): members and centres recomputed, no clustering. `None` when
+    /// the lengths differ or a label is >= `clusters`.
+    pub fn from_labels(
+        points: &[Vec<f64>],
+        label: Vec<usize>,
+        clusters: usize,
+        reassigned: usize,
+    ) -> Option<Self> {
+        if label.len() != points.len() || label.iter().any(|&l| l >= clusters) {
+            return None;
+        }
+        let members = group(&label, clusters);
+        let centres = centres(points, &members);
+        Some(SubDatabases {
+            label,
+            members,
+            centres,
+            reassigned,
+        })
     }
 
     /// The `n` clusters whose centres are nearest to `scan` (NaN = not heard,
@@ -229,6 +237,25 @@ impl SubDatabases {
         c.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
         c.into_iter().take(n).map(|(i, _)| i).collect()
     }
+}
+
+/// Mean vector of each cluster's members.
+fn centres(points: &[Vec<f64>], members: &[Vec<usize>]) -> Vec<Vec<f64>> {
+    let dim = points.first().map_or(0, |p| p.len());
+    members
+        .iter()
+        .map(|m| {
+            let mut c = vec![0.0; dim];
+            for &i in m {
+                for (cj, pj) in c.iter_mut().zip(&points[i]) {
+                    *cj += pj;
+                }
+            }
+            let n = m.len().max(1) as f64;
+            c.iter_mut().for_each(|v| *v /= n);
+            c
+        })
+        .collect()
 }
 
 fn group(label: &[usize], n: usize) -> Vec<Vec<usize>> {

@@ -3,18 +3,23 @@
 //! relative-density outlier rule (eqs. 7-8, Table 1), matching a scan to the
 //! best sub-database and WKNN inside it.
 //!
-//! The database here is built from the site's beacons and path-loss models
-//! at walkable grid points (the paper's eq. 6 interpolation applied to every
-//! point), see [`db::FingerprintDb::from_model`]; walked survey samples
-//! (eq. 3) can be added with [`db::FingerprintDb::push`] after the start/end
-//! compensation of [`db::compensate_walk`].
+//! Two sources of reference points: walked survey logs ([`survey`]: eq. 3
+//! with the start/end compensation of [`db::compensate_walk`], unheard
+//! beacons filled from the path-loss model, eqs. 4-6), or the site's
+//! path-loss models alone at walkable grid points
+//! ([`store::FingerprintSet::model`]). Either is clustered once into a
+//! [`store::FingerprintSet`], which serialises to JSON ([`store::FingerprintFile`]).
 
 pub mod cluster;
 pub mod db;
+pub mod store;
+pub mod survey;
 pub mod wknn;
 
 pub use cluster::{SubDatabases, affinity_propagation, relative_density};
 pub use db::{Fingerprint, FingerprintDb};
+pub use store::{FingerprintFile, FingerprintSet, FloorDb};
+pub use survey::{LogSurvey, SurveyBuilder};
 pub use wknn::wknn;
 
 use serde::{Deserialize, Serialize};
@@ -46,6 +51,19 @@ pub struct FingerprintConfig {
     pub wknn_k: usize,
     /// Only the strongest this many heard beacons of a scan are matched. Default 8.
     pub scan_max_beacons: usize,
+    /// Survey builder: one RSSI sample (the BLE front end's filtered vector)
+    /// every this many seconds, s. Default 1.0 (the BLE task period).
+    pub survey_sample_interval_s: f64,
+    /// Survey builder: samples are averaged in square cells of this side,
+    /// metres (coarsened until `max_points_per_floor`). Default 1.0.
+    pub survey_cell_m: f64,
+    /// Survey builder: consecutive known points further apart in time than
+    /// this are not a survey line, s. Default 60.
+    pub survey_max_segment_s: f64,
+    /// Survey builder: model grid points (`grid_step_m`) farther than this
+    /// from every surveyed cell are added (the path-loss model covers what
+    /// the survey did not walk), metres; 0 = survey points only. Default 0.
+    pub survey_model_fill_m: f64,
 }
 
 impl Default for FingerprintConfig {
@@ -61,6 +79,10 @@ impl Default for FingerprintConfig {
             search_clusters: 2,
             wknn_k: 4,
             scan_max_beacons: 8,
+            survey_sample_interval_s: 1.0,
+            survey_cell_m: 1.0,
+            survey_max_segment_s: 60.0,
+            survey_model_fill_m: 0.0,
         }
     }
 }
@@ -90,6 +112,18 @@ impl FingerprintConfig {
                 "ap_iterations/density_k/wknn_k/search_clusters",
                 "must be >= 1",
             );
+        }
+        for (f, v) in [
+            ("survey_sample_interval_s", self.survey_sample_interval_s),
+            ("survey_cell_m", self.survey_cell_m),
+            ("survey_max_segment_s", self.survey_max_segment_s),
+        ] {
+            if !(v.is_finite() && v >= 0.01) {
+                return bad(f, "must be finite and >= 0.01");
+            }
+        }
+        if !(self.survey_model_fill_m.is_finite() && self.survey_model_fill_m >= 0.0) {
+            return bad("survey_model_fill_m", "must be finite and >= 0");
         }
         if !(self.outlier_relative_density.is_finite() && self.outlier_relative_density >= 0.0) {
             return bad("outlier_relative_density", "must be finite and >= 0");

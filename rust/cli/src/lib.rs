@@ -1,0 +1,6 @@
+//! Library part of the `fpbp` command: the pieces the binary's subcommands
+//! share with the crate's examples (plots, site loading), so examples call
+//! them instead of keeping copies.
+
+pub mod plot;
+pub mod site_io;

@@ -107,12 +107,25 @@ pub fn forward_axis(map_from_device: &Matrix3<f64>, upright: bool) -> Vector3<f6
 }
 
 /// Tracks the k0 switch of [`HeadingSource::RotationVectorThenMadgwick`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+///
+/// Paper: k0 is a time. Optionally ([`SwitchClock::with_calm`]) k0 waits, after
+/// that time, until the gyroscope has been calm: the mean angular rate norm
+/// over the trailing window at or below a threshold, so that the Madgwick
+/// filter does not start from a rotation vector disturbed by deliberate phone
+/// motion (the IPIN logs start with a minute of it).
+#[derive(Debug, Clone, PartialEq)]
 pub struct SwitchClock {
     /// k0 as a time after the first sensor sample, ns; `None`: never switch.
     k0_ns: Option<i64>,
     first_t_ns: Option<i64>,
     switched: bool,
+    /// Calm window, ns (0: no calm condition), and its mean-rate threshold.
+    calm_window_ns: i64,
+    calm_rate: f64,
+    /// Gyroscope rate norms in the trailing window, and their sum.
+    rates: std::collections::VecDeque<(i64, f64)>,
+    rate_sum: f64,
+    first_gyro_t_ns: Option<i64>,
 }
 
 impl SwitchClock {
@@ -121,19 +134,69 @@ impl SwitchClock {
             k0_ns: k0_s.map(|s| (s * 1e9) as i64),
             first_t_ns: None,
             switched: false,
+            calm_window_ns: 0,
+            calm_rate: f64::INFINITY,
+            rates: std::collections::VecDeque::new(),
+            rate_sum: 0.0,
+            first_gyro_t_ns: None,
         }
     }
 
+    /// Adds the calm condition: a `window_s` (> 0) trailing window of
+    /// gyroscope samples whose mean rate norm is at most `max_mean_rad_s`.
+    pub fn with_calm(mut self, window_s: f64, max_mean_rad_s: f64) -> Self {
+        if window_s > 0.0 {
+            self.calm_window_ns = (window_s * 1e9) as i64;
+            self.calm_rate = max_mean_rad_s;
+        }
+        self
+    }
+
+    /// Notes a gyroscope sample (rate norm, rad/s) for the calm condition.
+    /// Samples out of time order or not finite are ignored.
+    pub fn on_gyro(&mut self, t_ns: i64, rate_rad_s: f64) {
+        if self.calm_window_ns == 0 || self.switched || !rate_rad_s.is_finite() {
+            return;
+        }
+        if self.rates.back().is_some_and(|&(t, _)| t_ns <= t) {
+            return;
+        }
+        self.first_gyro_t_ns.get_or_insert(t_ns);
+        self.rates.push_back((t_ns, rate_rad_s));
+        self.rate_sum += rate_rad_s;
+        while let Some(&(t, r)) = self.rates.front() {
+            if t_ns - t > self.calm_window_ns {
+                self.rates.pop_front();
+                self.rate_sum -= r;
+            } else {
+                break;
+            }
+        }
+    }
+
+    /// Whether the calm condition holds (always without one).
+    fn calm(&self) -> bool {
+        if self.calm_window_ns == 0 {
+            return true;
+        }
+        let (Some(first), Some(&(last, _))) = (self.first_gyro_t_ns, self.rates.back()) else {
+            return false;
+        };
+        last - first >= self.calm_window_ns
+            && self.rate_sum.max(0.0) / self.rates.len() as f64 <= self.calm_rate
+    }
+
     /// Notes a sensor time; returns true exactly once, at the first sample at
-    /// or after k0.
+    /// or after k0 (and, with the calm condition, once it holds).
     pub fn tick(&mut self, t_ns: i64) -> bool {
         let first = *self.first_t_ns.get_or_insert(t_ns);
         if self.switched {
             return false;
         }
         match self.k0_ns {
-            Some(k0) if t_ns - first >= k0 => {
+            Some(k0) if t_ns - first >= k0 && self.calm() => {
                 self.switched = true;
+                self.rates.clear();
                 true
             }
             _ => false,
@@ -184,6 +247,43 @@ mod tests {
             let yaw = d.y.atan2(d.x).to_degrees();
             assert!((yaw - 90.0).abs() < 1e-6, "pitch {deg}: yaw {yaw}");
         }
+    }
+
+    #[test]
+    fn calm_switch_waits_for_a_calm_gyroscope() {
+        // k0 = 2 s; the phone is shaken (3 rad/s) until 10 s, then calm
+        // (0.3 rad/s). With a 3 s window and 1 rad/s the switch waits until
+        // the window's mean drops: (3 * 0.9 + 0.3 * 2.1) / 3 = 1.11 > 1 at
+        // 12.1 s, <= 1 a little later; it never fires before 12 s.
+        let mut c = SwitchClock::new(Some(2.0)).with_calm(3.0, 1.0);
+        let mut plain = SwitchClock::new(Some(2.0));
+        let mut fired_at = None;
+        for i in 0..1000 {
+            let t_ns = i * 20_000_000;
+            let t = t_ns as f64 * 1e-9;
+            c.on_gyro(t_ns, if t < 10.0 { 3.0 } else { 0.3 });
+            if c.tick(t_ns) {
+                assert!(fired_at.is_none());
+                fired_at = Some(t);
+            }
+            if plain.tick(t_ns) {
+                assert!((t - 2.0).abs() < 1e-9);
+            }
+        }
+        let t = fired_at.unwrap();
+        assert!((12.1..12.5).contains(&t), "{t}");
+        // Calm from the start: fires at k0 if the window is already full.
+        let mut c = SwitchClock::new(Some(4.0)).with_calm(3.0, 1.0);
+        let mut fired_at = None;
+        for i in 0..400 {
+            let t_ns = i * 20_000_000;
+            c.on_gyro(t_ns, f64::NAN);
+            c.on_gyro(t_ns, 0.2);
+            if c.tick(t_ns) {
+                fired_at = Some(t_ns as f64 * 1e-9);
+            }
+        }
+        assert!((fired_at.unwrap() - 4.0).abs() < 1e-9);
     }
 
     #[test]

@@ -49,6 +49,13 @@ pub struct PdrConfig {
     /// switches from the rotation vector to Madgwick, seconds; `null`: never.
     /// Default 5.0.
     pub switch_to_madgwick_after_s: Option<f64>,
+    /// k0 also waits until the gyroscope has been calm over this trailing
+    /// window, seconds (a robust k0: not in deliberate phone motion); 0: the
+    /// paper's fixed k0. Default 3.0.
+    pub switch_calm_window_s: f64,
+    /// Calm means a mean angular rate norm over the window at most this,
+    /// rad/s. Default 1.5.
+    pub switch_calm_rate_rad_s: f64,
     /// Which device axis points forward: `top` (eq. 32, DCS y) or
     /// `tilt_aware` (the screen normal while the phone is upright or hangs
     /// top-down, e.g. in a swinging hand). Default `tilt_aware`.
@@ -83,6 +90,8 @@ impl Default for PdrConfig {
             max_gap_s: 0.5,
             heading_source: HeadingSource::RotationVectorThenMadgwick,
             switch_to_madgwick_after_s: Some(5.0),
+            switch_calm_window_s: 3.0,
+            switch_calm_rate_rad_s: 1.5,
             forward_axis: ForwardAxis::TiltAware,
             upright_enter_rad: 60f64.to_radians(),
             upright_exit_rad: 45f64.to_radians(),
@@ -129,6 +138,8 @@ impl PdrConfig {
         if let Some(k0) = self.switch_to_madgwick_after_s {
             non_negative("switch_to_madgwick_after_s", k0)?;
         }
+        non_negative("switch_calm_window_s", self.switch_calm_window_s)?;
+        positive("switch_calm_rate_rad_s", self.switch_calm_rate_rad_s)?;
         if !(self.upright_enter_rad.is_finite()
             && self.upright_enter_rad > 0.0
             && self.upright_enter_rad < std::f64::consts::FRAC_PI_2)
@@ -233,7 +244,8 @@ impl Pdr {
                 cfg.max_gap_s,
                 cfg.madgwick_use_magnetometer,
             ),
-            switch: SwitchClock::new(k0),
+            switch: SwitchClock::new(k0)
+                .with_calm(cfg.switch_calm_window_s, cfg.switch_calm_rate_rad_s),
             tilt: TiltSwitch::new(cfg.upright_enter_rad, cfg.upright_exit_rad),
             detector: StepDetector::new(cfg.step_params()),
             pending: Vec::new(),
@@ -243,6 +255,9 @@ impl Pdr {
 
     /// Feeds one sensor sample. Never fails: unusable samples are counted.
     pub fn on_sensor(&mut self, e: &SensorEvent) {
+        if let SensorData::Gyroscope(w) = e.data {
+            self.switch.on_gyro(e.t_ns, Vector3::from(w).norm());
+        }
         let fired = self.switch.tick(e.t_ns);
         let turned = matches!(
             e.data,

@@ -6,6 +6,8 @@
 
 use std::hint::black_box;
 
+mod common;
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use fpbp_core::Vec2;
 use fpbp_core::fusion::{FusionConfig, ParticleFilter, ppc};
@@ -53,7 +55,34 @@ fn demo_or_office() -> (FloorMap, &'static str) {
     }
 }
 
+/// Per-particle wall check of a fusion step.
+#[derive(Clone, Copy, PartialEq)]
+enum WallCheck {
+    /// `FloorMap::raycast` (the default `fusion.particle_wall_check`).
+    Raycast,
+    /// The literal Function 1 loop `FloorMap::raycast_reference` (the speed before the clearance table).
+    ReferenceRaycast,
+    /// No per-particle check (`particle_wall_check: false`).
+    Off,
+}
+
 fn fusion_step(c: &mut Criterion) {
+    for (name, check) in [
+        ("fusion_step_1000_particles_ppc", WallCheck::Raycast),
+        (
+            "fusion_step_1000_particles_ppc_reference_raycast",
+            WallCheck::ReferenceRaycast,
+        ),
+        (
+            "fusion_step_1000_particles_ppc_no_wall_check",
+            WallCheck::Off,
+        ),
+    ] {
+        fusion_step_with(c, name, check);
+    }
+}
+
+fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
     let (map, plan) = demo_or_office();
     eprintln!("fusion bench plan: {plan}");
     let cfg = FusionConfig::default();
@@ -68,8 +97,8 @@ fn fusion_step(c: &mut Criterion) {
     let mut prev = start;
     let mut k = 0u64;
     let mut before: Vec<Vec2> = Vec::new();
-    c.bench_function("fusion_step_1000_particles_ppc", |b| {
-        b.iter(|| {
+    c.bench_function(name, |b| {
+        common::run(b, || {
             // Walk east along the corridor, weaving into the walls now and then.
             k += 1;
             let yaw = if k % 8 < 4 { 0.6 } else { -0.6 };
@@ -80,9 +109,16 @@ fn fusion_step(c: &mut Criterion) {
             pf.predict(0.7, yaw);
             pf.weight(x_b);
             // The default particle wall check (extension, see docs/fusion.md).
-            pf.penalize_moves(&before, |a, b| {
-                map.raycast(a, b, cfg.ppc.raycast_step_m).is_some()
-            });
+            let step = cfg.ppc.raycast_step_m;
+            match check {
+                WallCheck::Raycast => {
+                    pf.penalize_moves(&before, |a, b| map.raycast(a, b, step).is_some());
+                }
+                WallCheck::ReferenceRaycast => {
+                    pf.penalize_moves(&before, |a, b| map.raycast_reference(a, b, step).is_some());
+                }
+                WallCheck::Off => {}
+            }
             let x_hat = pf.mean().unwrap_or(prev);
             pf.resample();
             let o = ppc::correct(&map, prev, x_hat, Some(x_b), &cfg.ppc);
@@ -106,7 +142,7 @@ fn filter_only(c: &mut Criterion) {
     let mut pf = ParticleFilter::new(&cfg, 1);
     pf.init_at(Vec2::new(2.5, 10.0), 1.0, |_| true);
     c.bench_function("filter_only_1000_particles", |b| {
-        b.iter(|| {
+        common::run(b, || {
             pf.predict(0.7, 0.1);
             let x_b = pf.mean().unwrap_or_default() + Vec2::new(0.5, 0.0);
             pf.weight(x_b);

@@ -15,6 +15,7 @@ pub mod calibrate;
 pub mod config;
 pub mod frontend;
 pub mod gml;
+pub mod gml_tables;
 pub mod grid;
 pub mod hull;
 pub mod kalman;

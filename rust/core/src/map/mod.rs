@@ -9,6 +9,7 @@ mod downsample;
 mod grid;
 mod normals;
 pub mod plan;
+mod raycast;
 mod rooms;
 
 pub use plan::{ClassifiedPlan, classify_png};
@@ -74,6 +75,8 @@ pub struct FloorMap {
     pixels_per_meter: f64,
     /// Row-major, row 0 at the top of the image.
     features: Vec<Feature>,
+    /// Row-major obstacle clearance per pixel (`raycast.rs`).
+    clearance: Vec<u8>,
     /// Row-major room label per pixel ([`NO_ROOM`] on obstacles).
     room_labels: Vec<RoomId>,
     rooms: Vec<Room>,
@@ -120,11 +123,13 @@ impl FloorMap {
         let labels = rooms::label_rooms(width_px, height_px, pixels_per_meter, &features);
         let walkable_pixels = features.iter().filter(|f| **f == Feature::Walkable).count();
         let door_pixels = features.iter().filter(|f| **f == Feature::Door).count();
+        let clearance = raycast::clearance_px(width_px, height_px, &features);
         let mut map = FloorMap {
             width_px,
             height_px,
             pixels_per_meter,
             features,
+            clearance,
             room_labels: labels.labels,
             rooms: labels.rooms,
             room_boundary: labels.boundary,
@@ -298,7 +303,9 @@ impl FloorMap {
         if !(q.x >= 0.0 && q.y >= 0.0) {
             return None;
         }
-        let (i, j) = (q.x.floor() as usize, q.y.floor() as usize);
+        // q >= 0 here, so truncation is floor (and cheaper than a libm call);
+        // `as` saturates, so huge values fail the bounds test below
+        let (i, j) = (q.x as usize, q.y as usize);
         (i < self.width_px && j < self.height_px).then_some((i, j))
     }
 
@@ -325,38 +332,6 @@ impl FloorMap {
 
     pub fn is_walkable(&self, p: Vec2) -> bool {
         self.feature(p) == Feature::Walkable
-    }
-
-    /// Raycast exactly as FP-BP Function 1: walk from `from` towards `to` in
-    /// steps of `step_m` (k = 0..=Round(|to - from| / step_m)) and return the
-    /// first sample whose M(x) > 0. A zero-length ray tests `from` alone.
-    /// The returned point never lies beyond `to` by more than step_m / 2
-    /// (the rounding of N); it is clamped to the segment.
-    pub fn raycast(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
-        let d = to - from;
-        let len = d.norm();
-        if len == 0.0 {
-            let f = self.feature(from);
-            return f.is_obstacle().then_some(RayHit {
-                point: from,
-                feature: f,
-            });
-        }
-        let step = if step_m > 0.0 { step_m } else { 0.05 };
-        let n = (len / step).round() as usize;
-        let dir = d / len;
-        for k in 0..=n {
-            let s = (k as f64 * step).min(len);
-            let x = from + dir * s;
-            let f = self.feature(x);
-            if f.is_obstacle() {
-                return Some(RayHit {
-                    point: x,
-                    feature: f,
-                });
-            }
-        }
-        None
     }
 }
 

@@ -1,0 +1,348 @@
+//! Raycast (FP-BP Function 1) and the obstacle clearance table that lets it
+//! skip samples which cannot be on an obstacle.
+//!
+//! The clearance of pixel P is D(P) = the chessboard distance (in pixels,
+//! centre to centre) from P to the nearest obstacle pixel, counting the
+//! pixels just outside the image as obstacles (outside is Wall), saturated at
+//! 255. Any point of P is at least (D - 1) px (Euclidean) from any point of
+//! any obstacle pixel: the chessboard distance never exceeds the Euclidean
+//! one, and two unit squares whose centres are D apart along the larger axis
+//! have a gap of D - 1 along it. So a raycast sample x in P proves that every
+//! later sample closer than (D - 1) / r metres to x is not on an obstacle, and
+//! the walk may jump over them. The samples the walk does evaluate are the
+//! very points of Function 1 (same arithmetic), so the result is identical to
+//! [`FloorMap::raycast_reference`], the literal sample-by-sample loop kept as
+//! the oracle (property test in `map/tests.rs`).
+//!
+//! Memory: one byte per pixel.
+
+use super::{Feature, FloorMap, RayHit};
+use crate::Vec2;
+
+/// Margin (metres) subtracted from a clearance before skipping samples, so
+/// floating-point rounding of sample positions can never step into a pixel
+/// the bound did not cover.
+const SKIP_MARGIN_M: f64 = 1e-6;
+
+/// `x.round() as usize` for x >= 0 (NaN -> 0, saturating) without the libm
+/// call: x - trunc(x) is exact below 2^52, and above it x is an integer.
+fn round_half_away(x: f64) -> usize {
+    let t = x as usize;
+    if x - t as f64 >= 0.5 {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// Chessboard distance transform (two passes, 8-neighbourhood) of the
+/// obstacle mask, with the outside of the image as obstacle; saturated at
+/// 255. Row-major like `features`.
+pub(crate) fn clearance_px(width: usize, height: usize, features: &[Feature]) -> Vec<u8> {
+    let mut d: Vec<u16> = Vec::with_capacity(width * height);
+    for j in 0..height {
+        for i in 0..width {
+            let f = features[j * width + i];
+            d.push(if f.is_obstacle() {
+                0
+            } else {
+                // distance to the ring of (obstacle) pixels outside the image
+                let edge = (i + 1).min(j + 1).min(width - i).min(height - j);
+                edge.min(255) as u16
+            });
+        }
+    }
+    // forward pass: neighbours above and to the left
+    for j in 0..height {
+        for i in 0..width {
+            let k = j * width + i;
+            let mut v = d[k];
+            if v == 0 {
+                continue;
+            }
+            if i > 0 {
+                v = v.min(d[k - 1] + 1);
+            }
+            if j > 0 {
+                let up = k - width;
+                v = v.min(d[up] + 1);
+                if i > 0 {
+                    v = v.min(d[up - 1] + 1);
+                }
+                if i + 1 < width {
+                    v = v.min(d[up + 1] + 1);
+                }
+            }
+            d[k] = v;
+        }
+    }
+    // backward pass: neighbours below and to the right
+    for j in (0..height).rev() {
+        for i in (0..width).rev() {
+            let k = j * width + i;
+            let mut v = d[k];
+            if v == 0 {
+                continue;
+            }
+            if i + 1 < width {
+                v = v.min(d[k + 1] + 1);
+            }
+            if j + 1 < height {
+                let down = k + width;
+                v = v.min(d[down] + 1);
+                if i + 1 < width {
+                    v = v.min(d[down + 1] + 1);
+                }
+                if i > 0 {
+                    v = v.min(d[down - 1] + 1);
+                }
+            }
+            d[k] = v;
+        }
+    }
+    d.into_iter().map(|v| v.min(255) as u8).collect()
+}
+
+impl FloorMap {
+    /// Raycast exactly as FP-BP Function 1: walk from `from` towards `to` in
+    /// steps of `step_m` (k = 0..=Round(|to - from| / step_m)) and return the
+    /// first sample whose M(x) > 0. A zero-length ray tests `from` alone.
+    /// The returned point never lies beyond `to` by more than step_m / 2
+    /// (the rounding of N); it is clamped to the segment.
+    ///
+    /// Same result as [`FloorMap::raycast_reference`]; samples within a
+    /// pixel's obstacle clearance of an evaluated sample are skipped (module
+    /// doc), so a ray through open space costs a few lookups.
+    pub fn raycast(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
+        let d = to - from;
+        let inv_r = 1.0 / self.pixels_per_meter;
+        // every sample lies within |d| of `from`: one lookup settles a ray
+        // shorter than the clearance there
+        if let Some((i, j)) = self.pixel_of(from) {
+            let idx = j * self.width_px + i;
+            // clearance 0 <=> obstacle (a free pixel is >= 1 from the border)
+            let c = self.clearance[idx];
+            if c >= 2 {
+                let free_m = (c - 1) as f64 * inv_r - SKIP_MARGIN_M;
+                if free_m > 0.0 && d.norm_squared() < free_m * free_m {
+                    return None;
+                }
+            }
+        }
+        let len = d.norm();
+        if len == 0.0 {
+            let f = self.feature(from);
+            return f.is_obstacle().then_some(RayHit {
+                point: from,
+                feature: f,
+            });
+        }
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = round_half_away(len / step);
+        let dir = d / len;
+        let inv_step = 1.0 / step;
+        let mut k = 0usize;
+        while k <= n {
+            let s = (k as f64 * step).min(len);
+            let x = from + dir * s;
+            let Some((i, j)) = self.pixel_of(x) else {
+                return Some(RayHit {
+                    point: x,
+                    feature: Feature::Wall,
+                });
+            };
+            let idx = j * self.width_px + i;
+            // one load per sample: the feature is read only on obstacles
+            let c = self.clearance[idx];
+            if c == 0 {
+                return Some(RayHit {
+                    point: x,
+                    feature: self.features[idx],
+                });
+            }
+            let mut next = k + 1;
+            if c >= 2 {
+                // samples k + m with m step < clearance are free
+                let free_m = (c - 1) as f64 * inv_r - SKIP_MARGIN_M;
+                // positive: truncation is floor; the reciprocal may round up
+                // by an ulp, so check m step < free_m and step back if not
+                let mut m = (free_m * inv_step) as usize;
+                if m > 0 && m as f64 * step >= free_m {
+                    m -= 1;
+                }
+                next = k.saturating_add(m).saturating_add(1);
+            }
+            k = next;
+        }
+        None
+    }
+
+    /// The literal Function 1 loop (every sample evaluated): the oracle for
+    /// [`FloorMap::raycast`].
+    pub fn raycast_reference(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
+        let d = to - from;
+        let len = d.norm();
+        if len == 0.0 {
+            let f = self.feature(from);
+            return f.is_obstacle().then_some(RayHit {
+                point: from,
+                feature: f,
+            });
+        }
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = (len / step).round() as usize;
+        let dir = d / len;
+        for k in 0..=n {
+            let s = (k as f64 * step).min(len);
+            let x = from + dir * s;
+            let f = self.feature(x);
+            if f.is_obstacle() {
+                return Some(RayHit {
+                    point: x,
+                    feature: f,
+                });
+            }
+        }
+        None
+    }
+
+    /// Chessboard clearance (pixels, saturated at 255) of pixel (column,
+    /// row) to the nearest obstacle or the image border; 0 on obstacles and
+    /// outside the image.
+    pub fn clearance_px(&self, i: usize, j: usize) -> u8 {
+        if i >= self.width_px || j >= self.height_px {
+            return 0;
+        }
+        self.clearance[j * self.width_px + i]
+    }
+
+    /// Bytes held by the clearance table.
+    pub fn clearance_bytes(&self) -> usize {
+        self.clearance.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn demo() -> &'static FloorMap {
+        use std::sync::OnceLock;
+        static MAP: OnceLock<FloorMap> = OnceLock::new();
+        MAP.get_or_init(|| {
+            let png = include_bytes!("../../../../maps/demo/plan.png");
+            let plan = super::super::classify_png(png, &crate::site::Legend::default(), "plan.png")
+                .unwrap();
+            FloorMap::from_classified_plan(plan, 10.0, 1, 1.0)
+        })
+    }
+
+    /// A w x h map with pseudo-random obstacles (density ~ `density`).
+    fn random_map(w: usize, h: usize, r: f64, seed: u64, density: f64) -> FloorMap {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let f = (0..w * h)
+            .map(|_| {
+                let u: f64 = rng.random();
+                if u < density {
+                    Feature::Wall
+                } else if u < density * 1.2 {
+                    Feature::Door
+                } else {
+                    Feature::Walkable
+                }
+            })
+            .collect();
+        FloorMap::from_features(w, h, r, f)
+    }
+
+    fn brute_clearance(m: &FloorMap, i: usize, j: usize) -> u8 {
+        let (w, h) = (m.width_px() as isize, m.height_px() as isize);
+        let (i, j) = (i as isize, j as isize);
+        let mut best = i + 1;
+        best = best.min(j + 1).min(w - i).min(h - j);
+        for jj in 0..h {
+            for ii in 0..w {
+                if m.feature_px(ii, jj).is_obstacle() {
+                    best = best.min((ii - i).abs().max((jj - j).abs()));
+                }
+            }
+        }
+        best.min(255) as u8
+    }
+
+    #[test]
+    fn round_half_away_is_round() {
+        for x in [
+            0.0,
+            0.49999999999999994,
+            0.5,
+            1.5,
+            2.5,
+            13.999999,
+            14.0,
+            14.5000001,
+            1e15 + 0.5,
+            4.5e15,
+        ] {
+            assert_eq!(round_half_away(x), x.round() as usize, "{x}");
+        }
+        assert_eq!(round_half_away(f64::NAN), 0);
+        assert_eq!(round_half_away(f64::INFINITY), usize::MAX);
+    }
+
+    #[test]
+    fn clearance_is_the_chessboard_distance_to_obstacles_or_border() {
+        for (seed, density) in [(1, 0.02), (2, 0.1), (3, 0.0)] {
+            let m = random_map(37, 23, 2.0, seed, density);
+            for j in 0..23 {
+                for i in 0..37 {
+                    assert_eq!(
+                        m.clearance_px(i, j),
+                        brute_clearance(&m, i, j),
+                        "seed {seed} pixel ({i}, {j})"
+                    );
+                }
+            }
+        }
+        assert_eq!(demo().clearance_bytes(), 640 * 440);
+        // 0 exactly on obstacles
+        let m = random_map(37, 23, 2.0, 4, 0.1);
+        for j in 0..23 {
+            for i in 0..37 {
+                let obstacle = m.feature_px(i as isize, j as isize).is_obstacle();
+                assert_eq!(m.clearance_px(i, j) == 0, obstacle, "({i}, {j})");
+            }
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(2000))]
+        /// The skipping raycast returns exactly the reference's hit (or none)
+        /// on the demo plan, for any segment (also leaving the image) and step.
+        #[test]
+        fn raycast_equals_reference_on_demo(
+            x1 in -2.0f64..66.0, y1 in -2.0f64..46.0,
+            dx in -12.0f64..12.0, dy in -12.0f64..12.0,
+            step in prop_oneof![Just(0.05f64), 0.005f64..1.5, Just(0.0)],
+        ) {
+            let m = demo();
+            let (a, b) = (Vec2::new(x1, y1), Vec2::new(x1 + dx, y1 + dy));
+            prop_assert_eq!(m.raycast(a, b, step), m.raycast_reference(a, b, step));
+        }
+
+        /// Same on random maps of any resolution and obstacle density.
+        #[test]
+        fn raycast_equals_reference_on_random_maps(
+            seed in 0u64..1000, density in 0.0f64..0.05, r in 0.5f64..20.0,
+            fx in 0.0f64..1.0, fy in 0.0f64..1.0, tx in -0.2f64..1.2, ty in -0.2f64..1.2,
+            step in 0.01f64..0.5,
+        ) {
+            let m = random_map(60, 40, r, seed, density);
+            let (w, h) = (m.width_m(), m.height_m());
+            let (a, b) = (Vec2::new(fx * w, fy * h), Vec2::new(tx * w, ty * h));
+            prop_assert_eq!(m.raycast(a, b, step), m.raycast_reference(a, b, step));
+        }
+    }
+}

@@ -16,21 +16,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
+use fpbp_cli::site_io::load_site;
 use fpbp_core::events::LogEvent;
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{Pdr, PdrConfig};
-use fpbp_core::site::{Site, SiteSpec};
 use fpbp_sim::{SimProfile, SimRequest, simulate};
-
-fn load_site(path: &Path) -> Result<Site> {
-    let name = path.display().to_string();
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {name}"))?;
-    let spec = SiteSpec::from_json(&bytes, &name)?;
-    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    Ok(Site::build(spec, &name, &mut |plan: &str| {
-        std::fs::read(dir.join(plan))
-    })?)
-}
 
 fn pct(v: &mut [f64], p: f64) -> f64 {
     if v.is_empty() {

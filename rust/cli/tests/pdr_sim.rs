@@ -6,22 +6,17 @@
 //! |err| median 7-13 deg with `tilt_aware`, 84-142 deg with `top`.
 
 use std::path::Path;
+use std::sync::Arc;
 
 use fpbp_core::events::LogEvent;
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{ForwardAxis, Pdr, PdrConfig};
-use fpbp_core::site::{Site, SiteSpec};
+use fpbp_core::site::Site;
 use fpbp_sim::{SimProfile, SimRequest, simulate};
 
-fn demo_site() -> Site {
+fn demo_site() -> Arc<Site> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    let bytes = std::fs::read(&path).unwrap();
-    let spec = SiteSpec::from_json(&bytes, "demo").unwrap();
-    let dir = path.parent().unwrap().to_path_buf();
-    Site::build(spec, "demo", &mut |plan: &str| {
-        std::fs::read(dir.join(plan))
-    })
-    .unwrap()
+    fpbp_cli::site_io::load_site(&path).unwrap()
 }
 
 /// (median |heading error| deg, walked-distance ratio) of one simulated walk.

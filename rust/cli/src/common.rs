@@ -215,16 +215,38 @@ pub struct ErrorStats {
     pub max_m: Option<f64>,
     /// Fraction of fixes on the truth's floor (None when no truth has a floor).
     pub floor_accuracy: Option<f64>,
+    /// IPIN competition metric: 75th percentile over the fixes of
+    /// horizontal error + 15 m x |estimated floor - true floor| (floor ids as
+    /// levels; a truth point without a floor adds nothing), metres.
+    pub ipin_score_m: Option<f64>,
+}
+
+/// Penalty per floor of difference in the IPIN competition metric, metres.
+pub const IPIN_FLOOR_PENALTY_M: f64 = 15.0;
+
+/// One point's IPIN competition error: horizontal error + 15 m per floor of
+/// difference (None without a fix).
+pub fn ipin_error_m(p: &ScoredPoint) -> Option<f64> {
+    let e = p.error_m()?;
+    let floors = match (p.estimate, p.truth.floor) {
+        (Some(est), Some(f)) => (i64::from(est.floor) - i64::from(f)).abs() as f64,
+        _ => 0.0,
+    };
+    Some(e + IPIN_FLOOR_PENALTY_M * floors)
 }
 
 impl ErrorStats {
     pub fn from_points<'a>(pts: impl IntoIterator<Item = &'a ScoredPoint>) -> ErrorStats {
         let mut errors = Vec::new();
+        let mut ipin = Vec::new();
         let (mut points, mut no_fix, mut floors, mut floors_ok) = (0, 0, 0usize, 0usize);
         for p in pts {
             points += 1;
             match p.error_m() {
-                Some(e) if e.is_finite() => errors.push(e),
+                Some(e) if e.is_finite() => {
+                    errors.push(e);
+                    ipin.extend(ipin_error_m(p));
+                }
                 _ => no_fix += 1,
             }
             if let Some(ok) = p.floor_correct() {
@@ -233,6 +255,7 @@ impl ErrorStats {
             }
         }
         errors.sort_by(f64::total_cmp);
+        ipin.sort_by(f64::total_cmp);
         let mean = (!errors.is_empty()).then(|| errors.iter().sum::<f64>() / errors.len() as f64);
         ErrorStats {
             points,
@@ -244,6 +267,7 @@ impl ErrorStats {
             p95_m: percentile(&errors, 95.0),
             max_m: errors.last().copied(),
             floor_accuracy: (floors > 0).then(|| floors_ok as f64 / floors as f64),
+            ipin_score_m: percentile(&ipin, 75.0),
         }
     }
 }
@@ -529,6 +553,46 @@ mod tests {
         assert_eq!(percentile(&v, 100.0), Some(4.0));
         assert!((percentile(&v, 80.0).unwrap() - 3.4).abs() < 1e-12);
         assert_eq!(percentile(&[], 50.0), None);
+    }
+
+    /// Hand-computed IPIN metric: horizontal error + 15 m per floor of
+    /// difference, 75th percentile (numpy interpolation) over the fixes.
+    #[test]
+    fn ipin_score_adds_15_m_per_floor_and_takes_the_75th_percentile() {
+        use fpbp_core::engine::Pose;
+        use fpbp_core::events::TruthPoint;
+        let pt = |err: f64, est_floor: i32, truth_floor: Option<i32>, fix: bool| ScoredPoint {
+            truth: TruthPoint {
+                t_ns: 0,
+                x_m: 0.0,
+                y_m: 0.0,
+                floor: truth_floor,
+            },
+            estimate: fix.then_some(Pose {
+                t_ns: 0,
+                x_m: 0.6 * err,
+                y_m: 0.8 * err,
+                floor: est_floor,
+                heading_rad: 0.0,
+                accuracy_m: 1.0,
+            }),
+        };
+        let pts = [
+            pt(2.0, 0, Some(0), true),   // 2
+            pt(1.0, -2, Some(0), true),  // 1 + 2 x 15 = 31
+            pt(3.0, -1, Some(0), true),  // 3 + 15 = 18
+            pt(5.0, 0, Some(0), true),   // 5
+            pt(4.0, 3, None, true),      // no truth floor: 4
+            pt(9.0, 0, Some(-2), false), // no fix: not scored
+        ];
+        assert_eq!(ipin_error_m(&pts[1]), Some(31.0));
+        assert_eq!(ipin_error_m(&pts[5]), None);
+        let s = ErrorStats::from_points(&pts);
+        // sorted 2, 4, 5, 18, 31: rank 0.75 x 4 = 3 -> 18
+        assert!((s.ipin_score_m.unwrap() - 18.0).abs() < 1e-9, "{s:?}");
+        // horizontal p75 of 1, 2, 3, 4, 5 is 4
+        assert!((s.p75_m.unwrap() - 4.0).abs() < 1e-9);
+        assert_eq!(s.floor_accuracy, Some(2.0 / 4.0));
     }
 
     #[test]

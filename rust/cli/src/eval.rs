@@ -114,7 +114,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
 
 fn print_table(ms: &[EngineMetrics]) {
     println!(
-        "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>10} {:>10} {:>9}",
+        "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>10} {:>10} {:>9}",
         "engine",
         "logs",
         "points",
@@ -125,6 +125,7 @@ fn print_table(ms: &[EngineMetrics]) {
         "p95_m",
         "max_m",
         "floor",
+        "ipin_m",
         "mct_gml",
         "mct_fus",
         "realtime"
@@ -132,7 +133,7 @@ fn print_table(ms: &[EngineMetrics]) {
     for m in ms {
         let e = &m.errors;
         println!(
-            "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>10} {:>10} {:>9}",
+            "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>10} {:>10} {:>9}",
             m.engine,
             m.logs,
             e.points,
@@ -143,6 +144,7 @@ fn print_table(ms: &[EngineMetrics]) {
             common::fmt_opt(e.p95_m, 2),
             common::fmt_opt(e.max_m, 2),
             common::fmt_opt(e.floor_accuracy, 2),
+            common::fmt_opt(e.ipin_score_m, 2),
             common::fmt_opt(m.mct_us.gml, 1),
             common::fmt_opt(m.mct_us.fusion, 1),
             common::fmt_opt(m.realtime_factor, 0),
@@ -229,7 +231,43 @@ pub fn run_with(
     )
     .to_lowercase();
     plot::cdf_png(&args.out.join("cdf.png"), &title, &series)?;
+    let pp = args.out.join("points.csv");
+    std::fs::write(&pp, points_csv(&engines, &runs))
+        .with_context(|| format!("cannot write {}", pp.display()))?;
     Ok(metrics)
+}
+
+/// DIR/points.csv: one row per engine and scored truth point, with the
+/// estimated and true floors and the point's IPIN error (empty fields: no fix
+/// or no truth floor).
+fn points_csv(engines: &[String], runs: &[Vec<LogRun>]) -> String {
+    use std::fmt::Write;
+    let mut s = String::from(
+        "engine,log,t_s,truth_x_m,truth_y_m,truth_floor,est_x_m,est_y_m,est_floor,error_m,ipin_error_m\n",
+    );
+    let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.3}"));
+    for (e, rs) in engines.iter().zip(runs) {
+        for r in rs {
+            for p in &r.out.scored {
+                let t = &p.truth;
+                let _ = writeln!(
+                    s,
+                    "{e},{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
+                    r.log,
+                    t.t_ns as f64 * 1e-9,
+                    t.x_m,
+                    t.y_m,
+                    t.floor.map_or(String::new(), |f| f.to_string()),
+                    opt(p.estimate.map(|q| q.x_m)),
+                    opt(p.estimate.map(|q| q.y_m)),
+                    p.estimate.map_or(String::new(), |q| q.floor.to_string()),
+                    opt(p.error_m()),
+                    opt(common::ipin_error_m(p)),
+                );
+            }
+        }
+    }
+    s
 }
 
 fn short(p: &Path) -> String {
@@ -310,6 +348,7 @@ mod tests {
             "p95_m",
             "max_m",
             "floor_accuracy",
+            "ipin_score_m",
             "realtime_factor",
             "no_fix",
         ] {
@@ -319,6 +358,14 @@ mod tests {
         assert_eq!(e0["per_log"].as_array().unwrap().len(), 3);
         assert_eq!(e0["per_log"][0]["log"], "walk0.log");
         assert!(image::open(d.join("out/cdf.png")).is_ok());
+        // points.csv: header + one row per engine and scored point (12 + 15)
+        let csv = std::fs::read_to_string(d.join("out/points.csv")).unwrap();
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(lines.len(), 1 + 12 + 15, "{csv}");
+        assert!(lines[0].contains("est_floor") && lines[0].ends_with("ipin_error_m"));
+        // a pdr row has an estimated floor; a walk-east row (no fix) has none
+        assert_eq!(lines[1].split(',').nth(8), Some("0"));
+        assert_eq!(lines[13].split(',').nth(8), Some(""));
         // The odd split keeps one log.
         let ms = run_with(
             &Args {

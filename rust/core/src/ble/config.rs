@@ -48,12 +48,21 @@ pub struct BleConfig {
     /// walk 0.01 dB^2/s, 5 dB per residual) from the residuals at each BLE fix
     /// and subtract it before positioning (GML, fpbp, baselines). Default false.
     pub estimate_rssi_bias: bool,
+    /// Choose the BLE task's floor with the floor tracker (`floor::FloorTracker`,
+    /// barometer changes fused with the likely-floor votes) when the log has
+    /// pressure samples (GML, fpbp, bp, baselines); without pressure nothing
+    /// changes. Default true (docs/floors.md).
+    pub floor_tracker: bool,
+    /// The floor tracker's parameters (as `ekf.floor`).
+    pub floor: crate::floor::FloorConfig,
 }
 
 impl Default for BleConfig {
     fn default() -> Self {
         BleConfig {
             kalman: KalmanConfig::default(),
+            floor_tracker: true,
+            floor: crate::floor::FloorConfig::default(),
             min_rssi_dbm: -110.0,
             phone_height_m: 1.2,
             min_distance_m: 0.5,
@@ -346,6 +355,7 @@ impl BleConfig {
         }
         non_negative("ble.wcentroid.exponent", self.wcentroid.exponent)?;
         self.nlos.validate("ble.nlos")?;
+        self.floor.validate()?;
         self.calibration.validate()
     }
 }

@@ -37,6 +37,8 @@ pub struct BleTask {
     nlos: Option<super::nlos::NlosIdentifier>,
     /// RSSI-bias estimate when `estimate_rssi_bias` is on.
     bias: Option<super::rssi_bias::RssiBiasEstimator>,
+    /// Floor tracker (`ble.floor_tracker`): barometer + likely-floor votes.
+    floors: Option<crate::floor::FloorTracker>,
     /// Runs that produced no position.
     pub no_fix: u64,
 }
@@ -51,7 +53,25 @@ impl BleTask {
                 grids.insert(spec.id, map.grid().to_vec());
             }
         }
-        Self::with_parts(cfg, BleFrontEnd::new(cfg, site), kind.build(cfg), grids)
+        let mut task = Self::with_parts(cfg, BleFrontEnd::new(cfg, site), kind.build(cfg), grids);
+        task.floors = cfg
+            .floor_tracker
+            .then(|| crate::floor::FloorTracker::for_site(&cfg.floor, site, site.default_floor()));
+        task
+    }
+
+    /// One sensor sample: pressure goes to the floor tracker (if any).
+    pub fn on_sensor(&mut self, event: &crate::events::SensorEvent) {
+        if let (Some(ft), crate::events::SensorData::Pressure(p)) =
+            (self.floors.as_mut(), event.data)
+        {
+            ft.on_pressure(event.t_ns, p);
+        }
+    }
+
+    /// The floor tracker's rejected pressure samples.
+    pub fn floor_rejected(&self) -> u64 {
+        self.floors.as_ref().map_or(0, |f| f.rejected)
     }
 
     /// A task from explicit parts (tests, benches, other engines).
@@ -73,6 +93,7 @@ impl BleTask {
             bias: cfg
                 .estimate_rssi_bias
                 .then(|| super::rssi_bias::RssiBiasEstimator::new(6.0, 0.01, 5.0)),
+            floors: None,
             no_fix: 0,
         }
     }
@@ -103,9 +124,29 @@ impl BleTask {
     /// the same floor. Returns x_B, or `None` (counted in `no_fix`).
     pub fn run(&mut self, t_ns: i64, prev: Option<Vec2>) -> Option<BleFix> {
         let (floor, beacons) = self.beacons_on_floor(t_ns);
-        let Some(floor) = floor else {
+        let Some(likely) = floor else {
             self.no_fix += 1;
             return None;
+        };
+        // with pressure, the floor tracker decides the floor; its beacons are
+        // used when at least 3 are heard, else every heard beacon (a floor
+        // with few or no beacons, e.g. a mezzanine)
+        let (floor, beacons) = match self.floors.as_mut() {
+            Some(ft) if ft.has_pressure() => {
+                if let Some(v) = ft.vote(&self.front.current(t_ns), self.cfg.gml.top_n) {
+                    ft.on_ble_floor(t_ns, v);
+                }
+                match ft.floor() {
+                    Some(f) if f != likely => {
+                        let all = self.front.current(t_ns);
+                        let on: Vec<FilteredBeacon> =
+                            all.iter().filter(|b| b.floor == f).copied().collect();
+                        (f, if on.len() >= 3 { on } else { all })
+                    }
+                    _ => (likely, beacons),
+                }
+            }
+            _ => (likely, beacons),
         };
         let same_floor_last = self.last.filter(|l| l.floor == floor);
         if same_floor_last.is_none() {

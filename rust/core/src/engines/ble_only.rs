@@ -45,8 +45,9 @@ impl Engine for BleOnlyEngine {
         self.kind.name()
     }
 
-    fn on_sensor(&mut self, _event: &SensorEvent) {
+    fn on_sensor(&mut self, event: &SensorEvent) {
         self.stats.sensor_events += 1;
+        self.task.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {

@@ -85,6 +85,11 @@ impl BleSide {
         self.task.on_observation(obs)
     }
 
+    /// One sensor sample (pressure feeds the BLE task's floor tracker).
+    pub fn on_sensor(&mut self, e: &crate::events::SensorEvent) {
+        self.task.on_sensor(e);
+    }
+
     /// One GML run at `t_ns`; `prev` is the last published fused position.
     pub fn run(&mut self, t_ns: i64, prev: Option<Vec2>) -> Option<BleFix> {
         self.task.run(t_ns, prev)
@@ -509,6 +514,7 @@ impl Engine for FpbpEngine {
     fn on_sensor(&mut self, event: &SensorEvent) {
         self.stats.sensor_events += 1;
         self.fusion.on_sensor(event);
+        self.ble.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {

@@ -134,12 +134,12 @@ impl RobustEkfEngine {
     fn fingerprint_fix(&mut self, t_ns: i64) -> Option<(i32, Vec2)> {
         let beacons = self.front.current(t_ns);
         let ble_floor = BleFrontEnd::likely_floor(&beacons, self.ble_cfg.gml.top_n)?;
-        if !self.initialised {
-            // the start floor comes from BLE; the barometer tracks changes from there
-            self.floors.reset_to_floor(ble_floor);
+        // floors: the tracker (barometer changes + BLE votes) when the log
+        // has pressure, else the BLE floor
+        if let Some(v) = self.floors.vote(&beacons, self.ble_cfg.gml.top_n) {
+            self.floors.on_ble_floor(t_ns, v);
         }
-        // floors: barometer when the log has one, else the BLE floor
-        let floor = if self.floors.has_pressure() && self.initialised {
+        let floor = if self.floors.has_pressure() {
             self.floors.floor().unwrap_or(ble_floor)
         } else {
             ble_floor

@@ -154,10 +154,10 @@ impl TcEkfEngine {
         let Some(ble_floor) = BleFrontEnd::likely_floor(&all, self.ble_cfg.gml.top_n) else {
             return false;
         };
-        if !self.initialised {
-            self.floors.reset_to_floor(ble_floor);
+        if let Some(v) = self.floors.vote(&all, self.ble_cfg.gml.top_n) {
+            self.floors.on_ble_floor(t_ns, v);
         }
-        let floor = if self.floors.has_pressure() && self.initialised {
+        let floor = if self.floors.has_pressure() {
             self.floors.floor().unwrap_or(ble_floor)
         } else {
             ble_floor

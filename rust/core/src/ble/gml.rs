@@ -59,12 +59,14 @@ pub struct Gml {
 }
 
 /// Tolerance of the f32 pre-selection: candidates with an f32 cost within
-/// this of the f32 minimum are re-evaluated in f64. f32 log-ranges carry a
-/// relative error of 2^-24 (absolute < 1e-6 for |log10 d| < 8), so each
-/// term's error is below ~2 w |r| 1e-6 + w r^2 1e-7; the bound used,
-/// 1e-4 (1 + |c_min|) + 1e-4 sum w, is ~50x that for residuals |r| < 8.
+/// this of the f32 minimum are re-evaluated in f64. The f32 log-ranges carry
+/// an absolute error below 1e-6 (`gml_tables::fast_log10` and f32 rounding)
+/// and log d_hat below 5e-7 (|log10 d| < 8), so each term's error is below
+/// ~2 w |r| 1.5e-6 + w r^2 1e-7; the bound used, 1e-4 (1 + |c_min|) +
+/// 5e-4 sum w, is ~20x that for residuals |r| < 8 (and more for the small
+/// residuals near the minimum).
 pub fn f32_tolerance(c_min: f32, weight_sum: f64) -> f64 {
-    1e-4 * (1.0 + c_min.abs() as f64) + 1e-4 * weight_sum
+    1e-4 * (1.0 + c_min.abs() as f64) + 5e-4 * weight_sum
 }
 
 struct Term {

@@ -580,3 +580,6 @@ mod json_path {
 
 #[cfg(test)]
 mod tests;
+
+#[cfg(test)]
+pub(crate) mod testkit;

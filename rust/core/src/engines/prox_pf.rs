@@ -546,7 +546,8 @@ pub(crate) mod testkit {
     use crate::events::{BleObservation, LogEvent, SensorData, SensorEvent, TruthPoint};
     use crate::map::{Feature, FloorMap};
     use crate::pdr::orientation::to_android;
-    use crate::site::{BeaconSpec, FloorSpec, Legend, Site, SiteSpec};
+    use crate::site::Site;
+    use crate::site::testkit::beacon_site;
 
     pub const MODEL: PathLoss = PathLoss {
         rssi_1m_dbm: -59.0,
@@ -577,41 +578,8 @@ pub(crate) mod testkit {
     }
 
     pub fn site() -> Arc<Site> {
-        let spec = SiteSpec {
-            format: "fpbp-site".into(),
-            version: 1,
-            name: "nlos-test".into(),
-            map_from_enu_rad: 0.0,
-            legend: Legend::default(),
-            grid_interval_m: 1.0,
-            floors: vec![FloorSpec {
-                id: 0,
-                name: String::new(),
-                plan: None,
-                pixels_per_meter: None,
-                target_pixels_per_meter: None,
-                open_area_m: Some([20.0, 40.0]),
-                height_m: 0.0,
-            }],
-            beacons: beacons()
-                .iter()
-                .enumerate()
-                .map(|(i, p)| BeaconSpec {
-                    id: format!("mac:00:00:00:00:00:{i:02X}"),
-                    floor: 0,
-                    x_m: p.x,
-                    y_m: p.y,
-                    z_m: 1.2,
-                    rssi_1m_dbm: MODEL.rssi_1m_dbm,
-                    path_loss_exponent: MODEL.exponent,
-                })
-                .collect(),
-            georef: None,
-        };
-        Arc::new(Site {
-            spec,
-            floors: vec![walled_map()],
-        })
+        let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
+        beacon_site("nlos-test", vec![walled_map()], &bs, MODEL)
     }
 
     /// `seconds` of walking north along x = 7 from y = 4 (phone flat, top

@@ -360,8 +360,7 @@ mod tests {
     use crate::engine::build_engine;
     use crate::engine::replay::replay;
     use crate::events::{GnssFix, LogEvent, TruthPoint};
-    use crate::map::{Feature, FloorMap};
-    use crate::site::{BeaconSpec, FloorSpec, Legend, SiteSpec};
+    use crate::site::testkit::{beacon_site, open_map};
 
     const MODEL: PathLoss = PathLoss {
         rssi_1m_dbm: -59.0,
@@ -377,43 +376,12 @@ mod tests {
     ];
 
     fn site() -> Arc<Site> {
-        let floor = |id: i32| FloorSpec {
-            id,
-            name: String::new(),
-            plan: None,
-            pixels_per_meter: None,
-            target_pixels_per_meter: None,
-            open_area_m: Some([40.0, 30.0]),
-            height_m: 4.0 * id as f64,
-        };
-        let spec = SiteSpec {
-            format: "fpbp-site".into(),
-            version: 1,
-            name: "test".into(),
-            map_from_enu_rad: 0.0,
-            legend: Legend::default(),
-            grid_interval_m: 1.0,
-            floors: vec![floor(0), floor(1)],
-            beacons: BEACONS
-                .iter()
-                .enumerate()
-                .map(|(i, &(x, y))| BeaconSpec {
-                    id: format!("mac:00:00:00:00:00:{i:02X}"),
-                    floor: 0,
-                    x_m: x,
-                    y_m: y,
-                    z_m: 1.2,
-                    rssi_1m_dbm: MODEL.rssi_1m_dbm,
-                    path_loss_exponent: MODEL.exponent,
-                })
-                .collect(),
-            georef: None,
-        };
-        let map = || FloorMap::from_features(40, 30, 1.0, vec![Feature::Walkable; 1200]);
-        Arc::new(Site {
-            spec,
-            floors: vec![map(), map()],
-        })
+        beacon_site(
+            "test",
+            vec![open_map(40, 30), open_map(40, 30)],
+            &BEACONS,
+            MODEL,
+        )
     }
 
     /// Adverts every 0.2 s (with `bias` dB added) along a slow walk east, truth every second.

@@ -295,10 +295,9 @@ pub(crate) mod tests {
     use super::*;
     use crate::ble::pathloss::{PathLoss, range_m};
     use crate::events::{BleObservation, SensorData, SensorEvent, TruthPoint};
-    use crate::map::{Feature, FloorMap};
     use crate::pdr::HeadingSource;
     use crate::pdr::orientation;
-    use crate::site::{BeaconSpec, FloorSpec, Legend, SiteSpec};
+    use crate::site::testkit::{beacon_site, open_map};
     use nalgebra::{UnitQuaternion, Vector3};
     use std::sync::Arc;
 
@@ -317,46 +316,7 @@ pub(crate) mod tests {
 
     /// A 40 x 30 m open floor 0 with six beacons.
     pub fn site() -> Arc<Site> {
-        let spec = SiteSpec {
-            format: "fpbp-site".into(),
-            version: 1,
-            name: "survey-test".into(),
-            map_from_enu_rad: 0.0,
-            legend: Legend::default(),
-            grid_interval_m: 1.0,
-            floors: vec![FloorSpec {
-                id: 0,
-                name: String::new(),
-                plan: None,
-                pixels_per_meter: None,
-                target_pixels_per_meter: None,
-                open_area_m: Some([40.0, 30.0]),
-                height_m: 0.0,
-            }],
-            beacons: BEACONS
-                .iter()
-                .enumerate()
-                .map(|(i, &(x, y))| BeaconSpec {
-                    id: format!("mac:00:00:00:00:00:{i:02X}"),
-                    floor: 0,
-                    x_m: x,
-                    y_m: y,
-                    z_m: 1.2,
-                    rssi_1m_dbm: MODEL.rssi_1m_dbm,
-                    path_loss_exponent: MODEL.exponent,
-                })
-                .collect(),
-            georef: None,
-        };
-        Arc::new(Site {
-            spec,
-            floors: vec![FloorMap::from_features(
-                40,
-                30,
-                1.0,
-                vec![Feature::Walkable; 1200],
-            )],
-        })
+        beacon_site("survey-test", vec![open_map(40, 30)], &BEACONS, MODEL)
     }
 
     /// A walk east along y = 12.5 from x = 5 at `speed` m/s for `secs`:

@@ -8,8 +8,11 @@
 //! error estimate of eqs. 6-8 (GE fixed at each proximity fix, then carried by
 //! GNSS-minus-PDR displacement; before the first proximity fix the reported
 //! accuracy is used). Floors from the barometric floor tracker when the log
-//! has pressure, else the BLE likely floor. Not implemented: the BLE-heading
-//! walking direction of eqs. 9-11 (the PDR heading is used).
+//! has pressure, else the BLE likely floor. Walking direction of eq. 9
+//! (`ekf.walking_direction`, on by default): each BLE task's weighted
+//! centroid of the strongest three beacons feeds a BLE heading
+//! (kalman::walking_direction) that a step takes while it agrees with the
+//! phone's heading.
 
 use std::sync::Arc;
 
@@ -21,6 +24,7 @@ use crate::ble::{BleConfig, BleFrontEnd};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
 use crate::events::{BleObservation, GnssFix, SensorData, SensorEvent};
 use crate::floor::FloorTracker;
+use crate::kalman::walking_direction::WalkingDirection;
 use crate::kalman::{EkfConfig, robust_update};
 use crate::pdr::Pdr;
 use crate::site::Site;
@@ -49,6 +53,8 @@ pub struct TcEkfEngine {
     fusion_period_ns: i64,
     /// GNSS fixes used / dropped.
     pub gnss_used: u64,
+    /// Eq. 9 state (when `ekf.walking_direction`).
+    walking: Option<WalkingDirection>,
     stats: EngineStats,
 }
 
@@ -96,6 +102,13 @@ impl TcEkfEngine {
             ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             gnss_used: 0,
+            walking: config.ekf.walking_direction.then(|| {
+                WalkingDirection::new(
+                    config.ekf.walking_window_s,
+                    config.ekf.walking_threshold_rad,
+                    config.ekf.walking_min_travel_m,
+                )
+            }),
             stats: EngineStats::default(),
             site,
         })
@@ -166,16 +179,20 @@ impl TcEkfEngine {
         if beacons.is_empty() {
             return false;
         }
+        // weighted centroid of the strongest three: the start, and the BLE
+        // position of eq. 9's heading
+        let top = &beacons[..beacons.len().min(3)];
+        let w: Vec<f64> = top.iter().map(|b| 10f64.powf(b.rssi_dbm / 20.0)).collect();
+        let ws: f64 = w.iter().sum();
+        let c = top
+            .iter()
+            .zip(&w)
+            .fold(Vec2::zeros(), |a, (b, w)| a + b.pos * *w)
+            / ws;
+        if let Some(wd) = self.walking.as_mut() {
+            wd.on_ble_position(t_ns as f64 * 1e-9, c);
+        }
         if !self.initialised || floor != self.floor {
-            // weighted centroid of the strongest three as the start
-            let top = &beacons[..beacons.len().min(3)];
-            let w: Vec<f64> = top.iter().map(|b| 10f64.powf(b.rssi_dbm / 20.0)).collect();
-            let ws: f64 = w.iter().sum();
-            let c = top
-                .iter()
-                .zip(&w)
-                .fold(Vec2::zeros(), |a, (b, w)| a + b.pos * *w)
-                / ws;
             self.x[0] = c.x;
             self.x[1] = c.y;
             self.p[(0, 0)] = 25.0;
@@ -322,10 +339,17 @@ impl Engine for TcEkfEngine {
                 for s in self.pdr.take_steps() {
                     self.stats.steps += 1;
                     self.floors.on_step(true);
+                    // eq. 9: the walking direction replaces the phone heading
+                    // (yaw + dtheta) while the BLE heading agrees with it
+                    let phone = s.yaw_rad + self.x[3];
+                    let walk = match self.walking.as_mut() {
+                        Some(wd) => wd.direction(s.t_ns as f64 * 1e-9, phone),
+                        None => phone,
+                    };
                     if self.initialised {
-                        self.step(s.length_m, s.yaw_rad);
+                        self.step(s.length_m, walk - self.x[3]);
                     }
-                    heading = s.yaw_rad + self.x[3];
+                    heading = walk;
                 }
                 if self.floors.has_pressure()
                     && self.initialised

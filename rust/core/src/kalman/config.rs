@@ -52,6 +52,19 @@ pub struct EkfConfig {
     pub gnss_window: usize,
     /// tc-ekf: GNSS fixes with a reported accuracy above this are dropped, metres. Default 30.
     pub gnss_max_accuracy_m: f64,
+    /// tc-ekf: walking direction of eq. 9 (BLE heading while it agrees with
+    /// the phone's, kalman::walking_direction). Default true (the paper's;
+    /// measured neutral to slightly better, docs/engines-ekf.md).
+    pub walking_direction: bool,
+    /// tc-ekf eq. 9: comparison window, seconds. Default 3.0 (the paper's).
+    pub walking_window_s: f64,
+    /// tc-ekf eq. 9: theta_T on the mean absolute BLE-phone heading
+    /// difference over the window, rad. Default 0.35 (20 degrees, our choice:
+    /// the paper gives no value).
+    pub walking_threshold_rad: f64,
+    /// tc-ekf eq. 9: the window's BLE positions must span this, metres.
+    /// Default 2.0 (about 1.5 s of walking).
+    pub walking_min_travel_m: f64,
 }
 
 impl Default for EkfConfig {
@@ -78,6 +91,10 @@ impl Default for EkfConfig {
             q_heading_error_rad2_per_s: 0.002,
             gnss_window: 10,
             gnss_max_accuracy_m: 30.0,
+            walking_direction: true,
+            walking_window_s: 3.0,
+            walking_threshold_rad: 0.35,
+            walking_min_travel_m: 2.0,
         }
     }
 }
@@ -107,6 +124,9 @@ impl EkfConfig {
                 self.q_heading_error_rad2_per_s,
             ),
             ("gnss_max_accuracy_m", self.gnss_max_accuracy_m),
+            ("walking_window_s", self.walking_window_s),
+            ("walking_threshold_rad", self.walking_threshold_rad),
+            ("walking_min_travel_m", self.walking_min_travel_m),
         ];
         for (f, v) in pos {
             if !(v.is_finite() && v > 0.0) {

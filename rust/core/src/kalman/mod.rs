@@ -2,6 +2,7 @@
 //! (BMW paper eqs. 22-24), used by `robust-ekf` and `tc-ekf`.
 
 pub mod config;
+pub mod walking_direction;
 
 pub use config::EkfConfig;
 

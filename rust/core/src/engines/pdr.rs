@@ -123,7 +123,7 @@ impl Engine for PdrEngine {
     fn stats(&self) -> EngineStats {
         let p = self.pdr.stats();
         EngineStats {
-            rejected_inputs: p.skipped_accelerometer + p.skipped_gyroscope + p.bad_quaternions,
+            rejected_inputs: p.rejected(),
             ..self.stats.clone()
         }
     }

@@ -480,10 +480,7 @@ impl Engine for PpsaEngine {
         let p = self.pdr.stats();
         EngineStats {
             unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected
-                + p.skipped_accelerometer
-                + p.skipped_gyroscope
-                + p.bad_quaternions,
+            rejected_inputs: c.rejected + p.rejected(),
             ..self.stats.clone()
         }
     }

@@ -525,10 +525,7 @@ impl Engine for ProxPfEngine {
         let p = self.pdr.stats();
         EngineStats {
             unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected
-                + p.skipped_accelerometer
-                + p.skipped_gyroscope
-                + p.bad_quaternions,
+            rejected_inputs: c.rejected + p.rejected(),
             ..self.stats.clone()
         }
     }

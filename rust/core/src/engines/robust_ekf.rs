@@ -346,8 +346,7 @@ impl Engine for RobustEkfEngine {
             rejected_inputs: self.stats.rejected_inputs
                 + c.rejected
                 + self.floors.rejected
-                + p.skipped_accelerometer
-                + p.bad_quaternions,
+                + p.rejected(),
             ..self.stats.clone()
         }
     }

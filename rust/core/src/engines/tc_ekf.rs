@@ -381,8 +381,7 @@ impl Engine for TcEkfEngine {
             rejected_inputs: self.stats.rejected_inputs
                 + c.rejected
                 + self.floors.rejected
-                + p.skipped_accelerometer
-                + p.bad_quaternions,
+                + p.rejected(),
             ..self.stats.clone()
         }
     }

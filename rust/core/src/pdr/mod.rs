@@ -211,6 +211,15 @@ pub struct PdrStats {
     pub upright_steps: u64,
 }
 
+impl PdrStats {
+    /// Sensor inputs the PDR could not use (accelerometer and gyroscope
+    /// samples skipped, degenerate quaternions): the PDR's share of an
+    /// engine's `rejected_inputs`.
+    pub fn rejected(&self) -> u64 {
+        self.skipped_accelerometer + self.skipped_gyroscope + self.bad_quaternions
+    }
+}
+
 /// The PDR pipeline of one walker.
 #[derive(Debug, Clone)]
 pub struct Pdr {

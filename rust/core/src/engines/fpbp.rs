@@ -27,7 +27,6 @@ use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Ta
 use crate::events::{BleObservation, SensorEvent};
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
 use crate::fusion::{FusionConfig, ParticleFilter, PpcCase, ppc};
-use crate::map::Feature;
 use crate::pdr::Pdr;
 use crate::site::Site;
 use crate::{Error, Result};
@@ -392,14 +391,9 @@ impl FusionSide {
                 (true, Some(m), Some(to)) => {
                     self.ppc_counts.room_switched += 1;
                     let doors_ok = self.cfg.particles_pass_doors;
-                    let n = self.pf.replace_invalid(
-                        |p| match m.feature(p) {
-                            Feature::Walkable => false,
-                            Feature::Door => !doors_ok,
-                            Feature::Wall => true,
-                        },
-                        to,
-                    );
+                    let n = self
+                        .pf
+                        .replace_invalid(|p| ppc::blocks_particle(m.feature(p), doors_ok), to);
                     self.ppc_counts.particles_replaced += n as u64;
                     to
                 }

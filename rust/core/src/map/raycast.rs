@@ -115,20 +115,12 @@ impl FloorMap {
     /// doc), so a ray through open space costs a few lookups.
     pub fn raycast(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
         let d = to - from;
-        let inv_r = 1.0 / self.pixels_per_meter;
         // every sample lies within |d| of `from`: one lookup settles a ray
         // shorter than the clearance there
-        if let Some((i, j)) = self.pixel_of(from) {
-            let idx = j * self.width_px + i;
-            // clearance 0 <=> obstacle (a free pixel is >= 1 from the border)
-            let c = self.clearance[idx];
-            if c >= 2 {
-                let free_m = (c - 1) as f64 * inv_r - SKIP_MARGIN_M;
-                if free_m > 0.0 && d.norm_squared() < free_m * free_m {
-                    return None;
-                }
-            }
+        if self.obstacle_free_within(from, d.norm()) {
+            return None;
         }
+        let inv_r = 1.0 / self.pixels_per_meter;
         let len = d.norm();
         if len == 0.0 {
             let f = self.feature(from);
@@ -214,6 +206,22 @@ impl FloorMap {
             return 0;
         }
         self.clearance[j * self.width_px + i]
+    }
+
+    /// Whether no obstacle (Wall or Door) lies within `radius_m` of `p`,
+    /// from the clearance table (one lookup; conservative: `false` when the
+    /// clearance there is too small to tell).
+    pub fn obstacle_free_within(&self, p: Vec2, radius_m: f64) -> bool {
+        let Some((i, j)) = self.pixel_of(p) else {
+            return false;
+        };
+        // clearance 0 <=> obstacle (a free pixel is >= 1 from the border)
+        let c = self.clearance[j * self.width_px + i];
+        if c < 2 {
+            return false;
+        }
+        let free_m = (c - 1) as f64 / self.pixels_per_meter - SKIP_MARGIN_M;
+        free_m > 0.0 && radius_m < free_m
     }
 
     /// Bytes held by the clearance table.

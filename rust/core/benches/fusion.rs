@@ -58,7 +58,12 @@ fn demo_or_office() -> (FloorMap, &'static str) {
 /// Per-particle wall check of a fusion step.
 #[derive(Clone, Copy, PartialEq)]
 enum WallCheck {
-    /// `FloorMap::raycast` (the default `fusion.particle_wall_check`).
+    /// The engine's default: `ppc::crosses_wall` (doors pass,
+    /// `particles_pass_doors`), crossing particles keep
+    /// `wall_crossing_weight` of their weight, replacement counts Wall
+    /// pixels only.
+    Default,
+    /// `FloorMap::raycast` (Walls and Doors stop a particle, which dies).
     Raycast,
     /// The literal Function 1 loop `FloorMap::raycast_reference` (the speed before the clearance table).
     ReferenceRaycast,
@@ -68,7 +73,8 @@ enum WallCheck {
 
 fn fusion_step(c: &mut Criterion) {
     for (name, check) in [
-        ("fusion_step_1000_particles_ppc", WallCheck::Raycast),
+        ("fusion_step_1000_particles_ppc", WallCheck::Default),
+        ("fusion_step_1000_particles_ppc_raycast", WallCheck::Raycast),
         (
             "fusion_step_1000_particles_ppc_reference_raycast",
             WallCheck::ReferenceRaycast,
@@ -111,18 +117,26 @@ fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
             // The default particle wall check (extension, see docs/fusion.md).
             let step = cfg.ppc.raycast_step_m;
             match check {
+                WallCheck::Default => {
+                    pf.penalize_moves(&before, cfg.wall_crossing_weight, |a, b| {
+                        ppc::crosses_wall(&map, a, b, step)
+                    });
+                }
                 WallCheck::Raycast => {
-                    pf.penalize_moves(&before, |a, b| map.raycast(a, b, step).is_some());
+                    pf.penalize_moves(&before, 0.0, |a, b| map.raycast(a, b, step).is_some());
                 }
                 WallCheck::ReferenceRaycast => {
-                    pf.penalize_moves(&before, |a, b| map.raycast_reference(a, b, step).is_some());
+                    pf.penalize_moves(&before, 0.0, |a, b| {
+                        map.raycast_reference(a, b, step).is_some()
+                    });
                 }
                 WallCheck::Off => {}
             }
             let x_hat = pf.mean().unwrap_or(prev);
             pf.resample();
             let o = ppc::correct(&map, prev, x_hat, Some(x_b), &cfg.ppc);
-            ppc::apply_to_particles(&map, &mut pf, x_hat, &o, true);
+            let doors_ok = check == WallCheck::Default && cfg.particles_pass_doors;
+            ppc::apply_to_particles_with_doors(&map, &mut pf, x_hat, &o, true, doors_ok);
             prev = if o.position.x > 37.0 {
                 start
             } else {

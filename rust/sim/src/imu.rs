@@ -158,6 +158,10 @@ pub fn sensors(traj: &Trajectory, ctx: &ImuContext, rng: &mut Pcg64) -> Vec<Sens
             ) * c.mag_disturbance_ut,
         })
         .collect();
+    // The walker's own Weinberg coefficient relative to the PDR's: the PDR
+    // will measure every step `length_factor` times its true length.
+    let length_factor = (1.0 + normal(rng, 0.0, c.walker_step_length_sd_rel)).clamp(0.6, 1.4);
+    let pp_factor = length_factor.powi(4);
     let earth =
         Vector3::new(0.0, c.inclination_rad.cos(), -c.inclination_rad.sin()) * c.earth_field_ut;
 
@@ -173,7 +177,8 @@ pub fn sensors(traj: &Trajectory, ctx: &ImuContext, rng: &mut Pcg64) -> Vec<Sens
         for v in tremor.iter_mut() {
             *v = a * *v + c.tremor_rad * (1.0 - a * a).sqrt() * std_normal(rng);
         }
-        let g = gait_at(traj, t);
+        let mut g = gait_at(traj, t);
+        g.pp *= pp_factor;
         let stride = PI * (g.k + g.tau); // half the step frequency: sin is 0 at every heel strike
         let yaw_enu = yaw_body[k] - ctx.map_from_enu_rad;
         let fwd = Vector3::new(yaw_enu.cos(), yaw_enu.sin(), 0.0);
@@ -452,7 +457,12 @@ mod tests {
     #[test]
     fn vertical_peak_to_peak_follows_weinberg() {
         for carry in [Carry::InFront] {
-            let (tr, ev, cfg) = run(carry, 4);
+            // A walker whose Weinberg coefficient is the PDR's own.
+            let icfg = ImuConfig {
+                walker_step_length_sd_rel: 0.0,
+                ..ImuConfig::default()
+            };
+            let (tr, ev, cfg) = run_with(carry, 4, icfg);
             // Vertical acceleration = accel rotated to the world by the rotation vector.
             let mut rv = UnitQuaternion::identity();
             let mut vert: Vec<(f64, f64)> = Vec::new();

@@ -249,6 +249,14 @@ pub struct ImuConfig {
     /// that the low-passed peak-to-peak follows Weinberg. 0 disables the boost.
     /// Default: the PDR's default (`PdrConfig::default().low_pass_cutoff_hz`, 3.0).
     pub weinberg_lowpass_hz: f64,
+    /// How far off the PDR's step lengths are for this walker, relative
+    /// standard deviation (drawn once per log): the vertical peak-to-peak of
+    /// every step is scaled so that Weinberg with `weinberg_beta` measures
+    /// the true length times (1 + N(0, sd)), clamped to [0.6, 1.4] — people
+    /// differ from the PDR's beta. Default 0.12: per-path scale of the `pdr`
+    /// track against the truth on ILC site1/F1 (p10 / p50 / p90 0.87 / 0.98 /
+    /// 1.18; docs/sim.md "PDR drift"). 0 = every walker is the PDR's.
+    pub walker_step_length_sd_rel: f64,
     /// Forward (surge) acceleration amplitude as a fraction of the vertical
     /// peak-to-peak. Default 0.25.
     pub surge_ratio: f64,
@@ -275,7 +283,11 @@ pub struct ImuConfig {
     /// Swinging hand: swing amplitude, rad. Default 0.35.
     pub swing_amplitude_rad: f64,
     /// Constant yaw offset of the phone from the walking direction, standard
-    /// deviation (drawn once), rad. Default 0.05.
+    /// deviation (drawn once), rad. Default 0.17 (about 10 deg): with the
+    /// PDR's other heading errors it gives a per-path rotation of the `pdr`
+    /// track of 11.7-14.6 deg sd (0.16-0.20) against 13.9 (ILC site1/F1),
+    /// 11.3 (site2/F4) and 12.3 (IPIN) deg over the first 40 m walked
+    /// (docs/sim.md "PDR drift").
     pub yaw_offset_rad: f64,
     /// Rotation-vector yaw drift rate, standard deviation (drawn once), rad/s. Default 0.002.
     pub yaw_drift_rate_rad_s: f64,
@@ -314,6 +326,7 @@ impl Default for ImuConfig {
             timestamp_jitter_s: 0.0002,
             weinberg_beta: fpbp_core::pdr::PdrConfig::default().step_length_beta,
             weinberg_lowpass_hz: fpbp_core::pdr::PdrConfig::default().low_pass_cutoff_hz,
+            walker_step_length_sd_rel: 0.12,
             surge_ratio: 0.25,
             sway_accel_mps2: 0.4,
             accel_noise_mps2: 0.12,
@@ -326,7 +339,7 @@ impl Default for ImuConfig {
             tremor_rad: 0.01,
             swing_arm_m: 0.6,
             swing_amplitude_rad: 0.35,
-            yaw_offset_rad: 0.05,
+            yaw_offset_rad: 0.17,
             yaw_drift_rate_rad_s: 0.002,
             yaw_random_walk_rad_sqrt_s: 0.003,
             rotvec_noise_rad: 0.005,
@@ -363,6 +376,10 @@ impl ImuConfig {
         for (f, v) in [
             ("imu.weinberg_lowpass_hz", self.weinberg_lowpass_hz),
             ("imu.surge_ratio", self.surge_ratio),
+            (
+                "imu.walker_step_length_sd_rel",
+                self.walker_step_length_sd_rel,
+            ),
             ("imu.sway_accel_mps2", self.sway_accel_mps2),
             ("imu.accel_noise_mps2", self.accel_noise_mps2),
             ("imu.accel_bias_mps2", self.accel_bias_mps2),

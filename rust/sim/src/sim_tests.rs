@@ -191,12 +191,10 @@ fn injected_nlos_lowers_rssi_by_rate_times_mean() {
     );
 }
 
-#[test]
-fn core_pdr_finds_the_true_steps_and_lengths() {
+/// Core PDR step count and walked distance / true distance of one walk.
+fn pdr_walked_ratio(site: &fpbp_core::site::Site, r: &SimRequest) -> (usize, usize, f64) {
     use fpbp_core::pdr::{Pdr, PdrConfig};
-    let site = two_rooms_site();
-    let r = request(120.0, 31);
-    let log = simulate(&site, &r).unwrap();
+    let log = simulate(site, r).unwrap();
     let mut pdr = Pdr::new(&PdrConfig::default(), site.spec.map_from_enu_rad);
     for e in &log.events {
         if let LogEvent::Sensor(s) = e {
@@ -205,16 +203,45 @@ fn core_pdr_finds_the_true_steps_and_lengths() {
     }
     let steps = pdr.take_steps();
     let truth: Vec<_> = log.trajectory.steps_in_log().collect();
-    let rel = (steps.len() as f64 - truth.len() as f64).abs() / truth.len() as f64;
-    assert!(
-        rel < 0.05,
-        "core PDR: {} steps, truth {}",
-        steps.len(),
-        truth.len()
-    );
     let walked: f64 = truth.iter().map(|s| s.length_m).sum();
     let pdr_walked: f64 = steps.iter().map(|s| s.length_m).sum();
-    let ratio = pdr_walked / walked;
+    (steps.len(), truth.len(), pdr_walked / walked)
+}
+
+#[test]
+fn walkers_differ_from_the_pdr_step_length_model() {
+    // Walker factor sd 0.12: over eight walks the PDR's walked-distance
+    // ratio spreads like the drawn factors; with sd 0 it stays near 1.
+    let site = two_rooms_site();
+    let ratios = |sd: f64| -> Vec<f64> {
+        (41..49)
+            .map(|seed| {
+                let mut r = request(40.0, seed);
+                r.profile.imu.walker_step_length_sd_rel = sd;
+                pdr_walked_ratio(&site, &r).2
+            })
+            .collect()
+    };
+    let spread = |v: &[f64]| {
+        v.iter().cloned().fold(f64::MIN, f64::max) - v.iter().cloned().fold(f64::MAX, f64::min)
+    };
+    let (with, without) = (ratios(0.12), ratios(0.0));
+    assert!(spread(&with) > 0.15, "ratios {with:?}");
+    assert!(
+        without.iter().all(|r| (r - 1.0).abs() < 0.06),
+        "ratios {without:?}"
+    );
+}
+
+#[test]
+fn core_pdr_finds_the_true_steps_and_lengths() {
+    let site = two_rooms_site();
+    let mut r = request(120.0, 31);
+    // A walker whose Weinberg coefficient is the PDR's own.
+    r.profile.imu.walker_step_length_sd_rel = 0.0;
+    let (found, true_steps, ratio) = pdr_walked_ratio(&site, &r);
+    let rel = (found as f64 - true_steps as f64).abs() / true_steps as f64;
+    assert!(rel < 0.05, "core PDR: {found} steps, truth {true_steps}");
     eprintln!("PDR distance / true distance = {ratio}");
     assert!(
         (ratio - 1.0).abs() < 0.05,

@@ -357,10 +357,14 @@ impl FusionSide {
                 let step_m = self.cfg.ppc.raycast_step_m;
                 if self.cfg.particles_pass_doors {
                     self.pf
-                        .penalize_moves(&self.before, |a, b| ppc::crosses_wall(m, a, b, step_m));
+                        .penalize_moves(&self.before, self.cfg.wall_crossing_weight, |a, b| {
+                            ppc::crosses_wall(m, a, b, step_m)
+                        });
                 } else {
                     self.pf
-                        .penalize_moves(&self.before, |a, b| m.raycast(a, b, step_m).is_some());
+                        .penalize_moves(&self.before, self.cfg.wall_crossing_weight, |a, b| {
+                            m.raycast(a, b, step_m).is_some()
+                        });
                 }
             }
             // Room-level hypothesis: the heaviest room's mean is the estimate.

@@ -184,6 +184,9 @@ pub struct FusionConfig {
     /// Wall or Door get weight 0 before resampling (`fpbp` only). Default
     /// true (chosen on the demo logs, see docs/fusion.md; the paper has none).
     pub particle_wall_check: bool,
+    /// With `particle_wall_check`: the factor a crossing particle's weight
+    /// is multiplied by, in [0, 1] (0 = the particle dies). Default 0.
+    pub wall_crossing_weight: f64,
     /// Recovery extension (not in the paper, `fpbp` only): the largest
     /// fraction of the particles re-seeded around x_B in one fused step when
     /// the cloud's BLE likelihood has dropped (augmented MCL,
@@ -230,6 +233,20 @@ pub struct FusionConfig {
     /// site frame) instead of at the mean of those x_B. Default false
     /// (measured in docs/fusion.md).
     pub floor_change_keeps_position: bool,
+    /// Extension (not in the paper): standard deviation of each particle's
+    /// own heading offset, drawn at the start (Gaussian, clamped to ±0.6
+    /// rad) and added to the PDR yaw at every step of that particle, rad;
+    /// 0 disables it (the paper). Default: see docs/fusion.md.
+    pub heading_offset_sd_rad: f64,
+    /// Random-walk standard deviation of each particle's heading offset per
+    /// step, rad (0 = constant offsets).
+    pub heading_offset_walk_rad: f64,
+    /// Extension (not in the paper): standard deviation of each particle's
+    /// own step-length scale (1 + N(0, sd), clamped to [0.6, 1.4]) that
+    /// multiplies the PDR step length; 0 disables it (the paper).
+    pub step_scale_sd: f64,
+    /// Random-walk standard deviation of each particle's step scale per step.
+    pub step_scale_walk: f64,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -249,15 +266,20 @@ impl Default for FusionConfig {
             relocalize_distance_m: 8.0,
             relocalize_after_given_start: false,
             particle_wall_check: true,
+            wall_crossing_weight: 0.01,
             recovery_max_fraction: 0.0,
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.3,
             recovery_sigma_m: 2.0,
             room_estimate: true,
-            room_switch_mass: 0.6,
+            room_switch_mass: 0.4,
             weight_each_fix_once: false,
             particles_pass_doors: true,
             floor_change_keeps_position: false,
+            heading_offset_sd_rad: 0.0,
+            heading_offset_walk_rad: 0.0,
+            step_scale_sd: 0.0,
+            step_scale_walk: 0.0,
             ppc: PpcConfig::default(),
         }
     }
@@ -277,6 +299,10 @@ impl FusionConfig {
             room_switch_mass: 0.0,
             weight_each_fix_once: false,
             particles_pass_doors: false,
+            heading_offset_sd_rad: 0.0,
+            heading_offset_walk_rad: 0.0,
+            step_scale_sd: 0.0,
+            step_scale_walk: 0.0,
             ppc: PpcConfig::paper(),
             ..FusionConfig::default()
         }
@@ -304,6 +330,16 @@ impl FusionConfig {
         nonneg(self.init_spread_m, "init_spread_m")?;
         nonneg(self.ble_max_age_s, "ble_max_age_s")?;
         nonneg(self.relocalize_distance_m, "relocalize_distance_m")?;
+        nonneg(self.heading_offset_sd_rad, "heading_offset_sd_rad")?;
+        nonneg(self.heading_offset_walk_rad, "heading_offset_walk_rad")?;
+        nonneg(self.step_scale_sd, "step_scale_sd")?;
+        nonneg(self.step_scale_walk, "step_scale_walk")?;
+        if !(0.0..=1.0).contains(&self.wall_crossing_weight) {
+            return Err(Error::config(
+                "fusion.wall_crossing_weight",
+                "must be in [0, 1]",
+            ));
+        }
         if !(self.sigma_x_m.is_finite() && self.sigma_x_m > 0.0) {
             return Err(Error::config("fusion.sigma_x_m", "must be > 0"));
         }

@@ -5,6 +5,13 @@
 //! weights come from the BLE position x_B by eq. 36 and are normalised, the
 //! estimate is the weighted particle mean (eq. 35b), then the particles are
 //! resampled (systematic or stratified). The filter owns its seeded RNG.
+//!
+//! Extension (not in the paper, off in [`FusionConfig::paper`]): every
+//! particle may also carry its own heading offset and step-length scale,
+//! drawn at the start and random-walking a little per step, so that the
+//! cloud holds hypotheses about the phone's persistent heading and
+//! step-length errors and BLE and walls select the right ones (eq. 34 draws
+//! fresh noise every step and cannot learn a constant 10 deg offset).
 
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
@@ -37,12 +44,30 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
     (s, c)
 }
 
+/// One standard normal draw (Box-Muller, one of the pair).
+fn std_normal(rng: &mut Pcg64) -> f64 {
+    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+    let u2: f64 = rng.random::<f64>();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// Largest per-particle heading offset, rad (draws are clamped to it).
+const MAX_HEADING_OFFSET_RAD: f64 = 0.6;
+/// Per-particle step-length scales are clamped to [1 - this, 1 + this].
+const MAX_SCALE_DEVIATION: f64 = 0.4;
+
 /// Particles, weights and the RNG that moves and resamples them.
 #[derive(Debug, Clone)]
 pub struct ParticleFilter {
     particles: Vec<Vec2>,
     weights: Vec<f64>,
+    /// Per-particle heading offset, rad (all 0 unless `heading_offset_sd_rad` > 0).
+    heading_offset: Vec<f64>,
+    /// Per-particle step-length scale (all 1 unless `step_scale_sd` > 0).
+    step_scale: Vec<f64>,
     scratch: Vec<Vec2>,
+    scratch_offset: Vec<f64>,
+    scratch_scale: Vec<f64>,
     index_scratch: Vec<usize>,
     rng: Pcg64,
     count: usize,
@@ -50,6 +75,10 @@ pub struct ParticleFilter {
     heading_noise_rad: f64,
     sigma_x_m: f64,
     resampling: Resampling,
+    heading_offset_sd_rad: f64,
+    heading_offset_walk_rad: f64,
+    step_scale_sd: f64,
+    step_scale_walk: f64,
 }
 
 impl ParticleFilter {
@@ -60,7 +89,11 @@ impl ParticleFilter {
         ParticleFilter {
             particles: Vec::with_capacity(count),
             weights: Vec::with_capacity(count),
+            heading_offset: Vec::with_capacity(count),
+            step_scale: Vec::with_capacity(count),
             scratch: Vec::with_capacity(count),
+            scratch_offset: Vec::with_capacity(count),
+            scratch_scale: Vec::with_capacity(count),
             index_scratch: Vec::with_capacity(count),
             rng: Pcg64::seed_from_u64(seed),
             count,
@@ -68,6 +101,10 @@ impl ParticleFilter {
             heading_noise_rad: config.heading_noise_rad,
             sigma_x_m: config.sigma_x_m,
             resampling: config.resampling,
+            heading_offset_sd_rad: config.heading_offset_sd_rad,
+            heading_offset_walk_rad: config.heading_offset_walk_rad,
+            step_scale_sd: config.step_scale_sd,
+            step_scale_walk: config.step_scale_walk,
         }
     }
 
@@ -79,10 +116,14 @@ impl ParticleFilter {
     /// Places the m particles at `start` (x_i^(0) = x̄_B^(0), w_i = 1/m), or
     /// uniformly in a disc of radius `spread_m` around it when `spread_m > 0`.
     /// `accept` may reject a drawn point (e.g. one inside a wall); a rejected
-    /// draw falls back to `start` after a few tries.
+    /// draw falls back to `start` after a few tries. Each particle's heading
+    /// offset ~ N(0, `heading_offset_sd_rad`) and step scale ~ 1 +
+    /// N(0, `step_scale_sd`) are drawn after the positions (none when the sd is 0).
     pub fn init_at(&mut self, start: Vec2, spread_m: f64, accept: impl Fn(Vec2) -> bool) {
         self.particles.clear();
         self.weights.clear();
+        self.heading_offset.clear();
+        self.step_scale.clear();
         let w = 1.0 / self.count as f64;
         for _ in 0..self.count {
             let mut p = start;
@@ -100,13 +141,43 @@ impl ParticleFilter {
             self.particles.push(p);
             self.weights.push(w);
         }
+        for _ in 0..self.count {
+            let off = if self.heading_offset_sd_rad > 0.0 {
+                (self.heading_offset_sd_rad * std_normal(&mut self.rng))
+                    .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD)
+            } else {
+                0.0
+            };
+            let scale = if self.step_scale_sd > 0.0 {
+                (1.0 + self.step_scale_sd * std_normal(&mut self.rng))
+                    .clamp(1.0 - MAX_SCALE_DEVIATION, 1.0 + MAX_SCALE_DEVIATION)
+            } else {
+                1.0
+            };
+            self.heading_offset.push(off);
+            self.step_scale.push(scale);
+        }
+    }
+
+    /// Whether the particles carry their own heading offsets or step scales.
+    fn has_particle_biases(&self) -> bool {
+        self.heading_offset_sd_rad > 0.0
+            || self.heading_offset_walk_rad > 0.0
+            || self.step_scale_sd > 0.0
+            || self.step_scale_walk > 0.0
     }
 
     /// State transition, eq. 34: every particle moves by
     /// (s + nu_s) [cos(theta + nu_theta), sin(theta + nu_theta)] with nu_s,
-    /// nu_theta uniform in ±step_noise_m, ±heading_noise_rad.
+    /// nu_theta uniform in ±step_noise_m, ±heading_noise_rad. With
+    /// per-particle biases: (s * scale_i + nu_s) along theta + offset_i +
+    /// nu_theta, after offset_i and scale_i took their random-walk step.
     pub fn predict(&mut self, step_length_m: f64, yaw_rad: f64) {
         let (ds, dth) = (self.step_noise_m, self.heading_noise_rad);
+        if self.has_particle_biases() {
+            self.predict_biased(step_length_m, yaw_rad);
+            return;
+        }
         if dth <= SMALL_ANGLE_MAX_RAD {
             // cos/sin of yaw + nu by the angle-sum rule, with nu's from
             // series accurate to ~1e-16 on |nu| <= 0.5 (no libm call per
@@ -131,19 +202,52 @@ impl ParticleFilter {
         }
     }
 
-    /// Extension (not in the paper): zeroes the weight of every particle
-    /// whose last move (from `before[i]` to its position) `crossed` an
-    /// obstacle, then renormalises (uniform when every particle crossed).
-    /// Returns how many were zeroed.
+    fn predict_biased(&mut self, step_length_m: f64, yaw_rad: f64) {
+        let (ds, dth) = (self.step_noise_m, self.heading_noise_rad);
+        let (walk_off, walk_scale) = (self.heading_offset_walk_rad, self.step_scale_walk);
+        let (sy, cy) = yaw_rad.sin_cos();
+        for ((p, off), scale) in self
+            .particles
+            .iter_mut()
+            .zip(&mut self.heading_offset)
+            .zip(&mut self.step_scale)
+        {
+            if walk_off > 0.0 {
+                *off = (*off + walk_off * std_normal(&mut self.rng))
+                    .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
+            }
+            if walk_scale > 0.0 {
+                *scale = (*scale + walk_scale * std_normal(&mut self.rng))
+                    .clamp(1.0 - MAX_SCALE_DEVIATION, 1.0 + MAX_SCALE_DEVIATION);
+            }
+            let nu_s = ds * (2.0 * self.rng.random::<f64>() - 1.0);
+            let nu_th = dth * (2.0 * self.rng.random::<f64>() - 1.0);
+            let len = (step_length_m * *scale + nu_s).max(0.0);
+            let d = *off + nu_th;
+            let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
+                small_sin_cos(d)
+            } else {
+                d.sin_cos()
+            };
+            let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
+            *p += Vec2::new(len * c, len * s);
+        }
+    }
+
+    /// Extension (not in the paper): multiplies by `factor` (0 = zeroes)
+    /// the weight of every particle whose last move (from `before[i]` to its
+    /// position) `crossed` an obstacle, then renormalises (uniform when every
+    /// weight is 0). Returns how many were penalised.
     pub fn penalize_moves(
         &mut self,
         before: &[Vec2],
+        factor: f64,
         crossed: impl Fn(Vec2, Vec2) -> bool,
     ) -> usize {
         let mut n = 0;
         for ((w, p), b) in self.weights.iter_mut().zip(&self.particles).zip(before) {
             if crossed(*b, *p) {
-                *w = 0.0;
+                *w *= factor;
                 n += 1;
             }
         }
@@ -193,6 +297,8 @@ impl ParticleFilter {
         }
         let inv_m = 1.0 / m as f64;
         self.scratch.clear();
+        self.scratch_offset.clear();
+        self.scratch_scale.clear();
         let mut cum = self.weights[0];
         let mut j = 0usize;
         let u0: f64 = self.rng.random::<f64>();
@@ -206,8 +312,12 @@ impl ParticleFilter {
                 cum += self.weights[j];
             }
             self.scratch.push(self.particles[j]);
+            self.scratch_offset.push(self.heading_offset[j]);
+            self.scratch_scale.push(self.step_scale[j]);
         }
         std::mem::swap(&mut self.particles, &mut self.scratch);
+        std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
+        std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
         self.weights.iter_mut().for_each(|w| *w = inv_m);
     }
 
@@ -263,12 +373,15 @@ impl ParticleFilter {
         self.index_scratch[n_good..].reverse();
         for b in n_good..m {
             let i = self.index_scratch[b];
-            self.particles[i] = if n_good == 0 {
-                fallback
+            if n_good == 0 {
+                self.particles[i] = fallback;
             } else {
                 let k = ((self.rng.random::<f64>() * n_good as f64) as usize).min(n_good - 1);
-                self.particles[self.index_scratch[k]]
-            };
+                let src = self.index_scratch[k];
+                self.particles[i] = self.particles[src];
+                self.heading_offset[i] = self.heading_offset[src];
+                self.step_scale[i] = self.step_scale[src];
+            }
         }
         n_bad
     }
@@ -346,6 +459,16 @@ impl ParticleFilter {
     pub fn weights(&self) -> &[f64] {
         &self.weights
     }
+
+    /// Per-particle heading offsets, rad (same order as the particles).
+    pub fn heading_offsets(&self) -> &[f64] {
+        &self.heading_offset
+    }
+
+    /// Per-particle step-length scales (same order as the particles).
+    pub fn step_scales(&self) -> &[f64] {
+        &self.step_scale
+    }
 }
 
 #[cfg(test)]
@@ -354,12 +477,107 @@ mod tests {
     use proptest::prelude::*;
 
     fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
+        // eq. 34 alone: no per-particle heading offsets
         let cfg = FusionConfig {
             particle_count: m,
             resampling,
+            heading_offset_sd_rad: 0.0,
             ..FusionConfig::default()
         };
         ParticleFilter::new(&cfg, seed)
+    }
+
+    fn filter_with_offsets(m: usize, offset_sd_rad: f64, seed: u64) -> ParticleFilter {
+        let cfg = FusionConfig {
+            particle_count: m,
+            heading_offset_sd_rad: offset_sd_rad,
+            ..FusionConfig::default()
+        };
+        ParticleFilter::new(&cfg, seed)
+    }
+
+    /// Walks east 0.7 m per step while the PDR reports a yaw `bias_rad` off,
+    /// weighting against BLE fixes on the true path every step; returns the
+    /// final distance of the estimate from the truth and the weighted mean
+    /// heading offset of the particles.
+    fn walk_with_heading_bias(pf: &mut ParticleFilter, bias_rad: f64) -> (f64, f64) {
+        pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        let mut truth = Vec2::zeros();
+        for _ in 0..60 {
+            truth += Vec2::new(0.7, 0.0);
+            pf.predict(0.7, bias_rad);
+            pf.weight(truth);
+            pf.resample();
+        }
+        let off: f64 = pf
+            .heading_offsets()
+            .iter()
+            .zip(pf.weights())
+            .map(|(o, w)| o * w)
+            .sum();
+        ((pf.mean().unwrap() - truth).norm(), off)
+    }
+
+    #[test]
+    fn particle_heading_offsets_learn_a_constant_heading_error() {
+        // 12 deg heading error, 42 m walk, BLE on the true path (sigma 3 m)
+        let bias = 12f64.to_radians();
+        let (err_on, off) = walk_with_heading_bias(&mut filter_with_offsets(1000, 0.15, 5), bias);
+        let (err_off, _) = walk_with_heading_bias(&mut filter_with_offsets(1000, 0.0, 5), bias);
+        assert!(
+            (off + bias).abs() < 0.05,
+            "learned offset {off}, expected {}",
+            -bias
+        );
+        assert!(
+            err_on < 0.5 * err_off,
+            "error with offsets {err_on}, without {err_off}"
+        );
+    }
+
+    #[test]
+    fn heading_offsets_stay_with_their_particles() {
+        let mut pf = filter_with_offsets(500, 0.2, 9);
+        pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        let sd = (pf.heading_offsets().iter().map(|o| o * o).sum::<f64>() / 500.0).sqrt();
+        assert!((sd - 0.2).abs() < 0.03, "offset sd {sd}");
+        pf.predict(1.0, 0.0);
+        pf.weight(Vec2::new(1.0, 0.3));
+        let pairs: Vec<(Vec2, f64)> = pf
+            .particles()
+            .iter()
+            .copied()
+            .zip(pf.heading_offsets().iter().copied())
+            .collect();
+        pf.resample();
+        pf.replace_invalid(|p| p.y < 0.0, Vec2::zeros());
+        for (p, o) in pf.particles().iter().zip(pf.heading_offsets()) {
+            assert!(
+                pairs.contains(&(*p, *o)),
+                "{p:?} {o} is not a particle of before"
+            );
+        }
+    }
+
+    #[test]
+    fn penalized_moves_keep_a_fraction_of_their_weight() {
+        let mut pf = filter(4, Resampling::Systematic, 1);
+        pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        let mut before = pf.particles().to_vec();
+        // every particle "crossed": uniform again after normalising
+        assert_eq!(pf.penalize_moves(&before, 0.1, |_, _| true), 4);
+        assert!(pf.weights().iter().all(|w| (w - 0.25).abs() < 1e-12));
+        // only the first particle's move (marked by its start) crossed
+        before[0] = Vec2::new(-1.0, 0.0);
+        let n = pf.penalize_moves(&before, 0.1, |a, _| a.x < 0.0);
+        assert_eq!(n, 1);
+        // 0.1 : 1 : 1 : 1
+        assert!(
+            (pf.weights()[0] - 0.1 / 3.1).abs() < 1e-12,
+            "{:?}",
+            pf.weights()
+        );
+        assert!((pf.weights()[1] - 1.0 / 3.1).abs() < 1e-12);
     }
 
     #[test]
@@ -442,6 +660,7 @@ mod tests {
             let cfg = FusionConfig {
                 particle_count: 500,
                 heading_noise_rad: dth,
+                heading_offset_sd_rad: 0.0,
                 ..FusionConfig::default()
             };
             let mut pf = ParticleFilter::new(&cfg, 11);

@@ -377,7 +377,7 @@ impl FusionSide {
             let Some(x_hat) = mode.map(|r| r.mean).or_else(|| self.pf.mean()) else {
                 return;
             };
-            self.pf.resample();
+            self.pf.resample_if_degenerate();
             let prev = self.prev.unwrap_or(x_hat);
             // The heaviest room is not the previous one and holds enough of
             // the weight: the cloud has moved, follow it even through a wall.

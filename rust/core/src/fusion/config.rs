@@ -153,6 +153,12 @@ pub struct FusionConfig {
     pub sigma_x_m: f64,
     /// Resampling scheme. Default `systematic`.
     pub resampling: Resampling,
+    /// Extension (not in the paper): resample only when the effective
+    /// sample size 1 / sum w^2 falls below this fraction of m, and let each
+    /// fix multiply the weights the particles carry (sequential importance
+    /// sampling, Doucet et al.), in (0, 1]. 1 (default) resamples after
+    /// every step with weights set by eq. 36 alone, as the paper does.
+    pub resample_ess_fraction: f64,
     /// Number of first BLE positions averaged into the start position
     /// (x̄_B^(0), Sec. IV-C). Default 3.
     pub init_ble_fixes: u32,
@@ -181,11 +187,14 @@ pub struct FusionConfig {
     /// 4.40 m without; docs/fusion.md). Starts from BLE fixes always use it.
     pub relocalize_after_given_start: bool,
     /// Extension (not in the paper): particles whose own move crosses a
-    /// Wall or Door get weight 0 before resampling (`fpbp` only). Default
+    /// Wall (or a Door, without `particles_pass_doors`) have their weight
+    /// multiplied by `wall_crossing_weight` before resampling (`fpbp`
+    /// only). Default
     /// true (chosen on the demo logs, see docs/fusion.md; the paper has none).
     pub particle_wall_check: bool,
     /// With `particle_wall_check`: the factor a crossing particle's weight
-    /// is multiplied by, in [0, 1] (0 = the particle dies). Default 0.
+    /// is multiplied by, in [0, 1] (0 = the particle dies). Default 0.01
+    /// (24 simulated tuning logs, docs/parameters.md).
     pub wall_crossing_weight: f64,
     /// Recovery extension (not in the paper, `fpbp` only): the largest
     /// fraction of the particles re-seeded around x_B in one fused step when
@@ -212,8 +221,8 @@ pub struct FusionConfig {
     /// With `room_estimate`: when the heaviest room holds at least this
     /// fraction of the weight and is not the room of x^(k-1), the track
     /// moves there even through a wall (PPC is skipped for that step),
-    /// dimensionless in [0, 1]; 0 disables the switch. Default 0.6 (chosen
-    /// on the demo logs, docs/fusion.md).
+    /// dimensionless in [0, 1]; 0 disables the switch. Default 0.4 (0.6
+    /// before session 3; 24 simulated tuning logs, docs/parameters.md).
     pub room_switch_mass: f64,
     /// Whether each x_B weights the particles at one step only (the first
     /// step after it arrived) instead of at every step while it is fresh.
@@ -241,6 +250,13 @@ pub struct FusionConfig {
     /// Random-walk standard deviation of each particle's heading offset per
     /// step, rad (0 = constant offsets).
     pub heading_offset_walk_rad: f64,
+    /// Correlation length of the heading offsets, PDR steps: when > 0 each
+    /// offset is a first-order Gauss-Markov process (off <- a off + sd
+    /// sqrt(1 - a^2) n, a = exp(-1 / corr), stationary sd
+    /// `heading_offset_sd_rad`), the textbook model of a slowly varying
+    /// heading bias; `heading_offset_walk_rad` must then be 0. 0 (default)
+    /// keeps constant offsets or the random walk.
+    pub heading_offset_corr_steps: f64,
     /// Extension (not in the paper): standard deviation of each particle's
     /// own step-length scale (1 + N(0, sd), clamped to [0.6, 1.4]) that
     /// multiplies the PDR step length; 0 disables it (the paper).
@@ -259,6 +275,7 @@ impl Default for FusionConfig {
             heading_noise_rad: 20f64.to_radians(),
             sigma_x_m: 3.0,
             resampling: Resampling::Systematic,
+            resample_ess_fraction: 1.0,
             init_ble_fixes: 3,
             init_spread_m: 3.0,
             ble_max_age_s: 5.0,
@@ -278,6 +295,7 @@ impl Default for FusionConfig {
             floor_change_keeps_position: false,
             heading_offset_sd_rad: 0.0,
             heading_offset_walk_rad: 0.0,
+            heading_offset_corr_steps: 0.0,
             step_scale_sd: 0.0,
             step_scale_walk: 0.0,
             ppc: PpcConfig::default(),
@@ -301,6 +319,7 @@ impl FusionConfig {
             particles_pass_doors: false,
             heading_offset_sd_rad: 0.0,
             heading_offset_walk_rad: 0.0,
+            heading_offset_corr_steps: 0.0,
             step_scale_sd: 0.0,
             step_scale_walk: 0.0,
             ppc: PpcConfig::paper(),
@@ -332,6 +351,13 @@ impl FusionConfig {
         nonneg(self.relocalize_distance_m, "relocalize_distance_m")?;
         nonneg(self.heading_offset_sd_rad, "heading_offset_sd_rad")?;
         nonneg(self.heading_offset_walk_rad, "heading_offset_walk_rad")?;
+        nonneg(self.heading_offset_corr_steps, "heading_offset_corr_steps")?;
+        if self.heading_offset_corr_steps > 0.0 && self.heading_offset_walk_rad > 0.0 {
+            return Err(Error::config(
+                "fusion.heading_offset_corr_steps",
+                "a Gauss-Markov offset (corr_steps > 0) takes no heading_offset_walk_rad",
+            ));
+        }
         nonneg(self.step_scale_sd, "step_scale_sd")?;
         nonneg(self.step_scale_walk, "step_scale_walk")?;
         if !(0.0..=1.0).contains(&self.wall_crossing_weight) {
@@ -352,6 +378,15 @@ impl FusionConfig {
         };
         unit(self.recovery_max_fraction, "recovery_max_fraction")?;
         unit(self.room_switch_mass, "room_switch_mass")?;
+        if !(self.resample_ess_fraction.is_finite()
+            && self.resample_ess_fraction > 0.0
+            && self.resample_ess_fraction <= 1.0)
+        {
+            return Err(Error::config(
+                "fusion.resample_ess_fraction",
+                "must be in (0, 1]",
+            ));
+        }
         if !(self.recovery_alpha_slow.is_finite()
             && self.recovery_alpha_slow > 0.0
             && self.recovery_alpha_slow <= 1.0)

@@ -77,6 +77,13 @@ pub struct ParticleFilter {
     resampling: Resampling,
     heading_offset_sd_rad: f64,
     heading_offset_walk_rad: f64,
+    /// Gauss-Markov factor a = exp(-1 / heading_offset_corr_steps) of the
+    /// heading offsets (0 = the random walk `heading_offset_walk_rad`).
+    heading_offset_decay: f64,
+    /// Resample only when the effective sample size falls below this
+    /// fraction of m; >= 1 resamples at every step (the paper) and weights
+    /// are set, not multiplied, by each fix.
+    resample_ess_fraction: f64,
     step_scale_sd: f64,
     step_scale_walk: f64,
 }
@@ -103,6 +110,12 @@ impl ParticleFilter {
             resampling: config.resampling,
             heading_offset_sd_rad: config.heading_offset_sd_rad,
             heading_offset_walk_rad: config.heading_offset_walk_rad,
+            heading_offset_decay: if config.heading_offset_corr_steps > 0.0 {
+                (-1.0 / config.heading_offset_corr_steps).exp()
+            } else {
+                0.0
+            },
+            resample_ess_fraction: config.resample_ess_fraction,
             step_scale_sd: config.step_scale_sd,
             step_scale_walk: config.step_scale_walk,
         }
@@ -205,6 +218,10 @@ impl ParticleFilter {
     fn predict_biased(&mut self, step_length_m: f64, yaw_rad: f64) {
         let (ds, dth) = (self.step_noise_m, self.heading_noise_rad);
         let (walk_off, walk_scale) = (self.heading_offset_walk_rad, self.step_scale_walk);
+        // first-order Gauss-Markov offsets keep N(0, sd^2) as their
+        // stationary law: off <- a off + sd sqrt(1 - a^2) n
+        let a = self.heading_offset_decay;
+        let gm_sd = self.heading_offset_sd_rad * (1.0 - a * a).sqrt();
         let (sy, cy) = yaw_rad.sin_cos();
         for ((p, off), scale) in self
             .particles
@@ -212,7 +229,10 @@ impl ParticleFilter {
             .zip(&mut self.heading_offset)
             .zip(&mut self.step_scale)
         {
-            if walk_off > 0.0 {
+            if a > 0.0 {
+                *off = (a * *off + gm_sd * std_normal(&mut self.rng))
+                    .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
+            } else if walk_off > 0.0 {
                 *off = (*off + walk_off * std_normal(&mut self.rng))
                     .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
             }
@@ -270,10 +290,45 @@ impl ParticleFilter {
             .iter()
             .map(|p| (p - x_b).norm_squared())
             .fold(f64::INFINITY, f64::min);
-        for (w, p) in self.weights.iter_mut().zip(&self.particles) {
-            *w = (-((p - x_b).norm_squared() - d2min) * inv).exp();
+        if self.accumulates_weights() {
+            // sequential importance sampling: the fix updates the weights
+            // the cloud carries since its last resampling
+            for (w, p) in self.weights.iter_mut().zip(&self.particles) {
+                *w *= (-((p - x_b).norm_squared() - d2min) * inv).exp();
+            }
+        } else {
+            for (w, p) in self.weights.iter_mut().zip(&self.particles) {
+                *w = (-((p - x_b).norm_squared() - d2min) * inv).exp();
+            }
         }
         self.normalize();
+    }
+
+    /// Whether weights carry over between steps (ESS-triggered resampling,
+    /// `resample_ess_fraction` < 1).
+    fn accumulates_weights(&self) -> bool {
+        self.resample_ess_fraction < 1.0
+    }
+
+    /// Effective sample size 1 / sum w_i^2 of the normalised weights.
+    pub fn effective_sample_size(&self) -> f64 {
+        let s: f64 = self.weights.iter().map(|w| w * w).sum();
+        if s > 0.0 { 1.0 / s } else { 0.0 }
+    }
+
+    /// The engine's resampling step: [`ParticleFilter::resample`] at every
+    /// call (the paper), or, with `resample_ess_fraction` < 1, only when the
+    /// effective sample size has fallen below that fraction of m. Returns
+    /// whether it resampled.
+    pub fn resample_if_degenerate(&mut self) -> bool {
+        if self.accumulates_weights()
+            && self.effective_sample_size()
+                >= self.resample_ess_fraction * self.particles.len() as f64
+        {
+            return false;
+        }
+        self.resample();
+        true
     }
 
     /// Normalises the weights to sum 1 (uniform when they are all zero or not finite).
@@ -381,7 +436,13 @@ impl ParticleFilter {
                 self.particles[i] = self.particles[src];
                 self.heading_offset[i] = self.heading_offset[src];
                 self.step_scale[i] = self.step_scale[src];
+                if self.accumulates_weights() {
+                    self.weights[i] = self.weights[src];
+                }
             }
+        }
+        if self.accumulates_weights() && n_bad > 0 {
+            self.normalize();
         }
         n_bad
     }
@@ -557,6 +618,137 @@ mod tests {
                 "{p:?} {o} is not a particle of before"
             );
         }
+    }
+
+    fn offset_stats(pf: &ParticleFilter) -> (f64, Vec<f64>) {
+        let o = pf.heading_offsets().to_vec();
+        let sd = (o.iter().map(|x| x * x).sum::<f64>() / o.len() as f64).sqrt();
+        (sd, o)
+    }
+
+    #[test]
+    fn gauss_markov_heading_offsets_keep_their_spread_and_decorrelate() {
+        let (sd, corr) = (0.1, 10.0);
+        let cfg = FusionConfig {
+            particle_count: 2000,
+            heading_offset_sd_rad: sd,
+            heading_offset_corr_steps: corr,
+            ..FusionConfig::default()
+        };
+        let mut pf = ParticleFilter::new(&cfg, 3);
+        pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        let (_, start) = offset_stats(&pf);
+        pf.predict(0.7, 0.0);
+        let (_, next) = offset_stats(&pf);
+        // lag-1 correlation a = exp(-1 / corr)
+        let c1 = start.iter().zip(&next).map(|(a, b)| a * b).sum::<f64>()
+            / start.iter().map(|a| a * a).sum::<f64>();
+        assert!(
+            (c1 - (-1.0 / corr).exp()).abs() < 0.03,
+            "lag-1 correlation {c1}"
+        );
+        for _ in 0..199 {
+            pf.predict(0.7, 0.0);
+        }
+        // stationary: the spread stays sd (a random walk with the same
+        // per-step sd would have grown to ~0.6 rad, the clamp)
+        let (sd_end, end) = offset_stats(&pf);
+        assert!(
+            (sd_end - sd).abs() < 0.015,
+            "offset sd after 200 steps {sd_end}"
+        );
+        let c200 = start.iter().zip(&end).map(|(a, b)| a * b).sum::<f64>()
+            / start.iter().map(|a| a * a).sum::<f64>();
+        assert!(
+            c200.abs() < 0.1,
+            "offsets still correlated after 200 steps: {c200}"
+        );
+    }
+
+    #[test]
+    fn gauss_markov_and_random_walk_offsets_are_exclusive() {
+        let cfg = FusionConfig {
+            heading_offset_sd_rad: 0.1,
+            heading_offset_corr_steps: 10.0,
+            heading_offset_walk_rad: 0.01,
+            ..FusionConfig::default()
+        };
+        let e = cfg.validate().unwrap_err().to_string();
+        assert!(e.contains("fusion.heading_offset_corr_steps"), "{e}");
+    }
+
+    fn ess_filter(m: usize, fraction: f64) -> ParticleFilter {
+        let cfg = FusionConfig {
+            particle_count: m,
+            resample_ess_fraction: fraction,
+            sigma_x_m: 3.0,
+            ..FusionConfig::default()
+        };
+        cfg.validate().unwrap();
+        ParticleFilter::new(&cfg, 11)
+    }
+
+    #[test]
+    fn ess_resampling_waits_until_the_weights_degenerate() {
+        let mut pf = ess_filter(1000, 0.5);
+        pf.init_at(Vec2::zeros(), 2.0, |_| true);
+        // a fix at the cloud's centre barely changes the weights: no resampling
+        pf.weight(Vec2::zeros());
+        let ess = pf.effective_sample_size();
+        assert!(ess > 500.0, "ess {ess}");
+        assert!(!pf.resample_if_degenerate());
+        let w = pf.weights().to_vec();
+        assert!(
+            w.iter().any(|x| (x - 1e-3).abs() > 1e-5),
+            "weights were reset"
+        );
+        // the next fix multiplies those weights: w_i ~ L_i^2 for the same fix
+        pf.weight(Vec2::zeros());
+        let inv = 1.0 / (2.0 * 9.0);
+        let l: Vec<f64> = pf
+            .particles()
+            .iter()
+            .map(|p| (-(p.norm_squared()) * inv).exp())
+            .collect();
+        let z: f64 = l.iter().map(|x| x * x).sum();
+        for (wi, li) in pf.weights().iter().zip(&l) {
+            assert!((wi - li * li / z).abs() < 1e-12, "{wi} vs {}", li * li / z);
+        }
+        // a far fix concentrates the weight: resampled, weights uniform
+        pf.weight(Vec2::new(15.0, 0.0));
+        assert!(
+            pf.effective_sample_size() < 500.0,
+            "ess {}",
+            pf.effective_sample_size()
+        );
+        assert!(pf.resample_if_degenerate());
+        assert!(pf.weights().iter().all(|x| (x - 1e-3).abs() < 1e-15));
+    }
+
+    #[test]
+    fn ess_fraction_one_resamples_every_step_like_the_paper() {
+        let (mut a, mut b) = (ess_filter(300, 1.0), ess_filter(300, 1.0));
+        for pf in [&mut a, &mut b] {
+            pf.init_at(Vec2::zeros(), 2.0, |_| true);
+        }
+        for k in 0..20 {
+            let x_b = Vec2::new(0.5 * k as f64, 0.3);
+            a.predict(0.5, 0.0);
+            b.predict(0.5, 0.0);
+            a.weight(x_b);
+            b.weight(x_b);
+            assert!(a.resample_if_degenerate());
+            b.resample();
+            assert_eq!(a.particles(), b.particles());
+        }
+        let e = FusionConfig {
+            resample_ess_fraction: 0.0,
+            ..FusionConfig::default()
+        }
+        .validate()
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("fusion.resample_ess_fraction"), "{e}");
     }
 
     #[test]

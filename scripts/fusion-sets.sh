@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Mean error of one engine config on the fusion tuning or held-out sets
+# (docs/fusion.md "Session 4"): one line per call, for parameter sweeps.
+#
+# Usage (from the repository root, after `cargo build --release -p fpbp-cli`
+# and the site imports of docs/sites.md):
+#   scripts/fusion-sets.sh logs                 # writes the 24 tuning logs to out/tune/
+#   scripts/fusion-sets.sh tune  NAME CONFIG_JSON [ENGINE]
+#   scripts/fusion-sets.sh check NAME CONFIG_JSON [ENGINE]
+# tune:  24 simulated logs (seeds 11-34) own start and --init truth, ILC
+#        site1/F1 even paths --init truth and own start, IPIN even --init truth.
+# check: the shipped logs own / truth, ILC F1 odd truth / own, ILC F4 odd
+#        truth, IPIN odd truth (held out: never used to choose a default).
+# Outputs go to out/sets/NAME/. ENGINE defaults to fpbp.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+F=${FPBP:-target/release/fpbp}
+D=${FPBP_DATASETS:-../shared/datasets}
+mode=${1:?usage: fusion-sets.sh logs|tune|check NAME CONFIG_JSON [ENGINE]}
+if [ "$mode" = logs ]; then
+    mkdir -p out/tune
+    for s in $(seq 11 34); do
+        profile=default
+        [ $((s % 3)) -eq 0 ] && profile=swinging
+        "$F" simulate --site maps/demo/site.json --seconds 120 --seed "$s" \
+            --profile $profile --out out/tune/sim-$s.log.gz >/dev/null
+    done
+    echo "24 tuning logs in out/tune"
+    exit 0
+fi
+name=${2:?NAME}
+cfg=${3:?CONFIG_JSON}
+eng=${4:-fpbp}
+[ -d "$D" ] || { echo "skipped: $D not found (the real-data sets need it)" >&2; exit 1; }
+o=out/sets/$name
+mkdir -p "$o"
+echo "$cfg" >"$o/config.json"
+F1=out/sites/ilc-site1-F1/site-cal.json
+F4=out/sites/ilc-site2-F4/site.json
+IP=out/sites/ipin2023/site.json
+run() { # label site split init logs...
+    local label=$1 site=$2 split=$3 init=$4
+    shift 4
+    local extra=()
+    [ "$split" != all ] && extra+=(--split "$split")
+    [ "$init" = truth ] && extra+=(--init truth)
+    "$F" eval --site "$site" --logs "$@" --engine "$eng" --config "$o/config.json" \
+        "${extra[@]}" --out "$o/$label" >"$o/$label.txt" 2>&1
+    printf ' %s %s' "$label" "$(awk -v e="$eng" '$1 == e {print $5}' "$o/$label.txt")"
+}
+printf '%-20s' "$name"
+case $mode in
+tune)
+    run sim24_own maps/demo/site.json all own out/tune/*.gz
+    run sim24_truth maps/demo/site.json all truth out/tune/*.gz
+    run f1_even_truth $F1 even truth $D/ilc/site1/F1/path_data_files/*.txt.gz
+    run f1_even_own $F1 even own $D/ilc/site1/F1/path_data_files/*.txt.gz
+    run ipin_even_truth $IP even truth $D/ipin2023/logs/*.gz
+    ;;
+check)
+    run shipped_own maps/demo/site.json all own host-tests/logs/*.gz
+    run shipped_truth maps/demo/site.json all truth host-tests/logs/*.gz
+    run f1_odd_truth $F1 odd truth $D/ilc/site1/F1/path_data_files/*.txt.gz
+    run f1_odd_own $F1 odd own $D/ilc/site1/F1/path_data_files/*.txt.gz
+    run f4_odd_truth $F4 odd truth $D/ilc/site2/F4/path_data_files/*.txt.gz
+    run ipin_odd_truth $IP odd truth $D/ipin2023/logs/*.gz
+    ;;
+*)
+    echo "unknown mode $mode (logs, tune or check)" >&2
+    exit 2
+    ;;
+esac
+printf '   %s\n' "$cfg"

@@ -378,24 +378,15 @@ impl FusionConfig {
         };
         unit(self.recovery_max_fraction, "recovery_max_fraction")?;
         unit(self.room_switch_mass, "room_switch_mass")?;
-        if !(self.resample_ess_fraction.is_finite()
-            && self.resample_ess_fraction > 0.0
-            && self.resample_ess_fraction <= 1.0)
-        {
-            return Err(Error::config(
-                "fusion.resample_ess_fraction",
-                "must be in (0, 1]",
-            ));
-        }
-        if !(self.recovery_alpha_slow.is_finite()
-            && self.recovery_alpha_slow > 0.0
-            && self.recovery_alpha_slow <= 1.0)
-        {
-            return Err(Error::config(
-                "fusion.recovery_alpha_slow",
-                "must be in (0, 1]",
-            ));
-        }
+        let open_unit = |v: f64, name: &str| {
+            if v.is_finite() && v > 0.0 && v <= 1.0 {
+                Ok(())
+            } else {
+                Err(Error::config(format!("fusion.{name}"), "must be in (0, 1]"))
+            }
+        };
+        open_unit(self.resample_ess_fraction, "resample_ess_fraction")?;
+        open_unit(self.recovery_alpha_slow, "recovery_alpha_slow")?;
         if !(self.recovery_alpha_fast.is_finite()
             && self.recovery_alpha_fast >= self.recovery_alpha_slow
             && self.recovery_alpha_fast <= 1.0)

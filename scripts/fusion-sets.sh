@@ -7,16 +7,20 @@
 #   scripts/fusion-sets.sh logs                 # writes the 24 tuning logs to out/tune/
 #   scripts/fusion-sets.sh tune  NAME CONFIG_JSON [ENGINE]
 #   scripts/fusion-sets.sh check NAME CONFIG_JSON [ENGINE]
+#   scripts/fusion-sets.sh seeds NAME CONFIG_JSON [ENGINE] [N]
 # tune:  24 simulated logs (seeds 11-34) own start and --init truth, ILC
 #        site1/F1 even paths --init truth and own start, IPIN even --init truth.
 # check: the shipped logs own / truth, ILC F1 odd truth / own, ILC F4 odd
 #        truth, IPIN odd truth (held out: never used to choose a default).
+# seeds: the shipped and the 24 tuning logs, own start and --init truth,
+#        each the mean over engine seeds 1..N (default 5): a log's error
+#        moves by ~0.3 m with the seed, so one seed cannot rank configs.
 # Outputs go to out/sets/NAME/. ENGINE defaults to fpbp.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 F=${FPBP:-target/release/fpbp}
 D=${FPBP_DATASETS:-../shared/datasets}
-mode=${1:?usage: fusion-sets.sh logs|tune|check NAME CONFIG_JSON [ENGINE]}
+mode=${1:?usage: fusion-sets.sh logs|tune|check|seeds NAME CONFIG_JSON [ENGINE] [N]}
 if [ "$mode" = logs ]; then
     mkdir -p out/tune
     for s in $(seq 11 34); do
@@ -31,6 +35,26 @@ fi
 name=${2:?NAME}
 cfg=${3:?CONFIG_JSON}
 eng=${4:-fpbp}
+if [ "$mode" = seeds ]; then
+    n=${5:-5}
+    o=out/sets/$name
+    mkdir -p "$o"
+    echo "$cfg" >"$o/config.json"
+    printf '%-20s' "$name"
+    for set in shipped_own shipped_truth sim24_own sim24_truth; do
+        case $set in shipped*) logs=(host-tests/logs/*.gz) ;; *) logs=(out/tune/*.gz) ;; esac
+        init=()
+        case $set in *truth) init=(--init truth) ;; esac
+        mean=$(for s in $(seq 1 "$n"); do
+            "$F" eval --site maps/demo/site.json --logs "${logs[@]}" --engine "$eng" \
+                --config "$o/config.json" --seed "$s" "${init[@]}" --out "$o/seeds" 2>/dev/null |
+                awk -v e="$eng" '$1 == e {print $5}'
+        done | awk '{t += $1; k++} END {if (k) printf "%.3f", t / k}')
+        printf ' %s %s' "$set" "$mean"
+    done
+    printf '   (seeds 1-%s) %s\n' "$n" "$cfg"
+    exit 0
+fi
 [ -d "$D" ] || { echo "skipped: $D not found (the real-data sets need it)" >&2; exit 1; }
 o=out/sets/$name
 mkdir -p "$o"
@@ -66,7 +90,7 @@ check)
     run ipin_odd_truth $IP odd truth $D/ipin2023/logs/*.gz
     ;;
 *)
-    echo "unknown mode $mode (logs, tune or check)" >&2
+    echo "unknown mode $mode (logs, tune, check or seeds)" >&2
     exit 2
     ;;
 esac

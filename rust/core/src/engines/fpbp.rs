@@ -132,6 +132,10 @@ pub struct FusionSide {
     /// no spread, no re-localisation unless configured) rather than a mean
     /// of BLE fixes.
     given_start: bool,
+    /// Running mean of the innovation |x_B - x^(k-1)| over fresh fixes, and
+    /// the time of the last fix counted (innovation-driven noise).
+    innovation_mean_m: Option<f64>,
+    innovation_fix_t_ns: Option<i64>,
     /// Re-localisations so far.
     pub relocalized: u64,
     pub ppc_counts: PpcCounts,
@@ -165,6 +169,8 @@ impl FusionSide {
             monitor: LikelihoodMonitor::default(),
             weighted_fix_t_ns: None,
             given_start: false,
+            innovation_mean_m: None,
+            innovation_fix_t_ns: None,
             relocalized: 0,
             ppc_counts: PpcCounts::default(),
         };
@@ -335,6 +341,10 @@ impl FusionSide {
                 self.before.clear();
                 self.before.extend_from_slice(self.pf.particles());
             }
+            if self.cfg.innovation_noise_gain > 0.0 {
+                let sd = self.innovation_noise_m(fix);
+                self.pf.set_extra_noise(sd);
+            }
             self.pf.predict(length_m, yaw_rad);
             let mut reseed = 0.0;
             let weigh = fix.filter(|f| {
@@ -439,6 +449,29 @@ impl FusionSide {
         if let Some(p) = last {
             self.publish(t_ns, p);
         }
+    }
+
+    /// Innovation-driven process noise (`fusion.innovation_noise_gain`):
+    /// the innovation d = |x_B - x^(k-1)| of the latest fix updates its
+    /// running mean once per fix; the noise is gain (d - free), free =
+    /// max(`innovation_free_m`, `innovation_typical_ratio` x mean), clamped
+    /// to [0, `innovation_noise_max_m`]. Without a fix, 0.
+    fn innovation_noise_m(&mut self, fix: Option<BleFix>) -> f64 {
+        let (Some(f), Some(prev)) = (fix, self.prev) else {
+            return 0.0;
+        };
+        let d = (f.pos - prev).norm();
+        if self.innovation_fix_t_ns != Some(f.t_ns) {
+            self.innovation_fix_t_ns = Some(f.t_ns);
+            let b = self.cfg.innovation_average_rate;
+            self.innovation_mean_m = Some(match self.innovation_mean_m {
+                Some(m) => (1.0 - b) * m + b * d,
+                None => d,
+            });
+        }
+        let typical = self.cfg.innovation_typical_ratio * self.innovation_mean_m.unwrap_or(0.0);
+        let free = self.cfg.innovation_free_m.max(typical);
+        (self.cfg.innovation_noise_gain * (d - free)).clamp(0.0, self.cfg.innovation_noise_max_m)
     }
 
     fn count(&mut self, case: PpcCase) {
@@ -775,6 +808,45 @@ mod tests {
         cfg.fusion.relocalize_after_given_start = true;
         let (p, n, _) = run(&cfg);
         assert!(p.x_m > 10.3 && n == 1, "{p:?} {n}");
+    }
+
+    /// Innovation-driven noise: the PDR reports half the walked distance
+    /// and x_B follows the truth; with the extra noise the cloud spreads when
+    /// x_B runs ahead and BLE pulls the track along, without it the track lags.
+    #[test]
+    fn innovation_noise_lets_ble_pull_a_lagging_track() {
+        let lag = |gain: f64, seed: u64| {
+            let mut cfg = EngineConfig {
+                seed,
+                ..EngineConfig::default()
+            };
+            cfg.fusion.innovation_noise_gain = gain;
+            cfg.fusion.innovation_free_m = 1.0;
+            let init = InitialPosition {
+                x_m: 1.0,
+                y_m: 2.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            let mut side = FusionSide::new(corridor_site(), &cfg, true, Some(init)).unwrap();
+            let mut sum = 0.0;
+            for k in 1..=25i64 {
+                let t = k * 700_000_000;
+                let truth_x = 1.0 + 0.7 * k as f64;
+                side.run_steps(t, Some(fix(t, truth_x, 2.0)), &[(0.35, 0.0)]);
+                sum += truth_x - side.pose().unwrap().x_m;
+            }
+            sum / 25.0
+        };
+        for seed in 1..=3 {
+            let (off, on) = (lag(0.0, seed), lag(0.3, seed));
+            assert!(
+                on < 0.7 * off,
+                "seed {seed}: mean lag {on} m with, {off} m without"
+            );
+        }
+        // gain 0 leaves the filter exactly as eq. 34 alone
+        assert_eq!(lag(0.0, 4), lag(0.0, 4));
     }
 
     /// A floor change restarts at the mean of the other floor's x_B, or at

@@ -263,6 +263,23 @@ pub struct FusionConfig {
     pub step_scale_sd: f64,
     /// Random-walk standard deviation of each particle's step scale per step.
     pub step_scale_walk: f64,
+    /// Innovation-driven process noise (not in the paper): when a fresh
+    /// x_B lies d > `innovation_free_m` from the last output position, the
+    /// following moves add isotropic Gaussian noise of standard deviation
+    /// gain (d - innovation_free_m) (capped at `innovation_noise_max_m`)
+    /// per axis, so a cloud that BLE disagrees with spreads and BLE can
+    /// pull it. 0 disables it. Default: see docs/fusion.md.
+    pub innovation_noise_gain: f64,
+    /// Innovation below which no extra noise is added, metres.
+    pub innovation_free_m: f64,
+    /// Largest extra noise per move, metres.
+    pub innovation_noise_max_m: f64,
+    /// The free innovation is at least this multiple of the running mean
+    /// innovation (0 = `innovation_free_m` alone): a site whose BLE errs by
+    /// 10-20 m then adds noise only on its unusually large innovations.
+    pub innovation_typical_ratio: f64,
+    /// Rate of that running mean per fresh fix, in (0, 1].
+    pub innovation_average_rate: f64,
     /// Post-position correction (Algorithm 2).
     pub ppc: PpcConfig,
 }
@@ -298,6 +315,11 @@ impl Default for FusionConfig {
             heading_offset_corr_steps: 0.0,
             step_scale_sd: 0.0,
             step_scale_walk: 0.0,
+            innovation_noise_gain: 0.0,
+            innovation_free_m: 3.0,
+            innovation_noise_max_m: 1.0,
+            innovation_typical_ratio: 0.0,
+            innovation_average_rate: 0.05,
             ppc: PpcConfig::default(),
         }
     }
@@ -322,6 +344,7 @@ impl FusionConfig {
             heading_offset_corr_steps: 0.0,
             step_scale_sd: 0.0,
             step_scale_walk: 0.0,
+            innovation_noise_gain: 0.0,
             ppc: PpcConfig::paper(),
             ..FusionConfig::default()
         }
@@ -359,6 +382,10 @@ impl FusionConfig {
             ));
         }
         nonneg(self.step_scale_sd, "step_scale_sd")?;
+        nonneg(self.innovation_noise_gain, "innovation_noise_gain")?;
+        nonneg(self.innovation_free_m, "innovation_free_m")?;
+        nonneg(self.innovation_noise_max_m, "innovation_noise_max_m")?;
+        nonneg(self.innovation_typical_ratio, "innovation_typical_ratio")?;
         nonneg(self.step_scale_walk, "step_scale_walk")?;
         if !(0.0..=1.0).contains(&self.wall_crossing_weight) {
             return Err(Error::config(
@@ -387,6 +414,7 @@ impl FusionConfig {
         };
         open_unit(self.resample_ess_fraction, "resample_ess_fraction")?;
         open_unit(self.recovery_alpha_slow, "recovery_alpha_slow")?;
+        open_unit(self.innovation_average_rate, "innovation_average_rate")?;
         if !(self.recovery_alpha_fast.is_finite()
             && self.recovery_alpha_fast >= self.recovery_alpha_slow
             && self.recovery_alpha_fast <= 1.0)

@@ -84,6 +84,9 @@ pub struct ParticleFilter {
     /// fraction of m; >= 1 resamples at every step (the paper) and weights
     /// are set, not multiplied, by each fix.
     resample_ess_fraction: f64,
+    /// Extra isotropic Gaussian position noise of the next moves, metres
+    /// (innovation-driven process noise; 0 = eq. 34 alone).
+    extra_noise_m: f64,
     step_scale_sd: f64,
     step_scale_walk: f64,
 }
@@ -116,6 +119,7 @@ impl ParticleFilter {
                 0.0
             },
             resample_ess_fraction: config.resample_ess_fraction,
+            extra_noise_m: 0.0,
             step_scale_sd: config.step_scale_sd,
             step_scale_walk: config.step_scale_walk,
         }
@@ -186,6 +190,24 @@ impl ParticleFilter {
     /// per-particle biases: (s * scale_i + nu_s) along theta + offset_i +
     /// nu_theta, after offset_i and scale_i took their random-walk step.
     pub fn predict(&mut self, step_length_m: f64, yaw_rad: f64) {
+        self.predict_eq34(step_length_m, yaw_rad);
+        let sd = self.extra_noise_m;
+        if sd > 0.0 {
+            for p in &mut self.particles {
+                let (a, b) = (std_normal(&mut self.rng), std_normal(&mut self.rng));
+                *p += Vec2::new(sd * a, sd * b);
+            }
+        }
+    }
+
+    /// Sets the extra position noise (standard deviation per axis, metres)
+    /// that every following [`ParticleFilter::predict`] adds after eq. 34;
+    /// 0 (the default) adds none. Not finite or negative counts as 0.
+    pub fn set_extra_noise(&mut self, sd_m: f64) {
+        self.extra_noise_m = if sd_m.is_finite() { sd_m.max(0.0) } else { 0.0 };
+    }
+
+    fn predict_eq34(&mut self, step_length_m: f64, yaw_rad: f64) {
         let (ds, dth) = (self.step_noise_m, self.heading_noise_rad);
         if self.has_particle_biases() {
             self.predict_biased(step_length_m, yaw_rad);
@@ -749,6 +771,27 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("fusion.resample_ess_fraction"), "{e}");
+    }
+
+    #[test]
+    fn extra_noise_spreads_the_moves_and_zero_adds_none() {
+        let mut a = filter(2000, Resampling::Systematic, 5);
+        let mut b = filter(2000, Resampling::Systematic, 5);
+        for pf in [&mut a, &mut b] {
+            pf.init_at(Vec2::zeros(), 0.0, |_| true);
+        }
+        // 0 (and garbage) adds nothing: the same draws as eq. 34 alone
+        a.set_extra_noise(f64::NAN);
+        a.predict(0.7, 0.3);
+        b.predict(0.7, 0.3);
+        assert_eq!(a.particles(), b.particles());
+        let mut c = filter(2000, Resampling::Systematic, 5);
+        c.init_at(Vec2::zeros(), 0.0, |_| true);
+        c.set_extra_noise(0.5);
+        c.predict(0.0, 0.0);
+        // step 0 +- 0.15 m along x, N(0, 0.5^2) per axis on top: y shows it alone
+        let sd_y = (c.particles().iter().map(|p| p.y * p.y).sum::<f64>() / 2000.0).sqrt();
+        assert!((sd_y - 0.5).abs() < 0.03, "sd of y {sd_y}");
     }
 
     #[test]

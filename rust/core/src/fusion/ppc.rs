@@ -42,6 +42,26 @@ pub trait PlanQueries {
     fn obstacle_free_within(&self, _p: Vec2, _radius_m: f64) -> bool {
         false
     }
+    /// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
+    /// not count), sampled at from + d (k / n), k = 0..=n, d = to - from,
+    /// n = ceil(|d| / step_m) (0.05 m when `step_m` is not > 0). The default
+    /// evaluates every sample (after the [`PlanQueries::obstacle_free_within`]
+    /// early exit); [`FloorMap`] skips samples by its Wall clearance table
+    /// ([`FloorMap::crosses_wall`], same answer).
+    fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        // every sample lies within |d| of `from`
+        if self.obstacle_free_within(from, len) {
+            return false;
+        }
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = (len / step).ceil() as usize;
+        (0..=n).any(|k| {
+            let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
+            self.feature_at(from + d * t) == Feature::Wall
+        })
+    }
 }
 
 /// Whether a particle standing on `f` is invalid (replaced after PPC):
@@ -353,20 +373,10 @@ pub fn apply_to_particles_with_doors<M: PlanQueries + ?Sized>(
 
 /// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
 /// not count), sampled at most `step_m` apart as Function 1 does, both ends
-/// included: the particle wall check with `particles_pass_doors`.
+/// included: the particle wall check with `particles_pass_doors`
+/// ([`PlanQueries::crosses_wall`]).
 pub fn crosses_wall<M: PlanQueries + ?Sized>(map: &M, from: Vec2, to: Vec2, step_m: f64) -> bool {
-    let d = to - from;
-    let len = d.norm();
-    // every sample lies within |d| of `from`
-    if map.obstacle_free_within(from, len) {
-        return false;
-    }
-    let step = if step_m > 0.0 { step_m } else { 0.05 };
-    let n = (len / step).ceil() as usize;
-    (0..=n).any(|k| {
-        let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
-        map.feature_at(from + d * t) == Feature::Wall
-    })
+    map.crosses_wall(from, to, step_m)
 }
 
 impl PlanQueries for FloorMap {
@@ -389,6 +399,10 @@ impl PlanQueries for FloorMap {
 
     fn obstacle_free_within(&self, p: Vec2, radius_m: f64) -> bool {
         FloorMap::obstacle_free_within(self, p, radius_m)
+    }
+
+    fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        FloorMap::crosses_wall(self, from, to, step_m)
     }
 
     fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {

@@ -77,6 +77,8 @@ pub struct FloorMap {
     features: Vec<Feature>,
     /// Row-major obstacle clearance per pixel (`raycast.rs`).
     clearance: Vec<u8>,
+    /// Row-major Wall clearance per pixel (Doors count as free; `raycast.rs`).
+    wall_clearance: Vec<u8>,
     /// Row-major room label per pixel ([`NO_ROOM`] on obstacles).
     room_labels: Vec<RoomId>,
     rooms: Vec<Room>,
@@ -123,13 +125,16 @@ impl FloorMap {
         let labels = rooms::label_rooms(width_px, height_px, pixels_per_meter, &features);
         let walkable_pixels = features.iter().filter(|f| **f == Feature::Walkable).count();
         let door_pixels = features.iter().filter(|f| **f == Feature::Door).count();
-        let clearance = raycast::clearance_px(width_px, height_px, &features);
+        let clearance = raycast::clearance_px(width_px, height_px, &features, Feature::is_obstacle);
+        let wall_clearance =
+            raycast::clearance_px(width_px, height_px, &features, |f| f == Feature::Wall);
         let mut map = FloorMap {
             width_px,
             height_px,
             pixels_per_meter,
             features,
             clearance,
+            wall_clearance,
             room_labels: labels.labels,
             rooms: labels.rooms,
             room_boundary: labels.boundary,

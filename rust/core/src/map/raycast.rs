@@ -14,7 +14,15 @@
 //! [`FloorMap::raycast_reference`], the literal sample-by-sample loop kept as
 //! the oracle (property test in `map/tests.rs`).
 //!
-//! Memory: one byte per pixel.
+//! The Wall clearance table is the same transform of the Wall mask alone
+//! (Doors count as free, the outside of the image as Wall), and lets
+//! [`FloorMap::crosses_wall`] (the particle wall check, where particles may
+//! pass doors) skip samples by the same argument; it equals
+//! [`FloorMap::crosses_wall_reference`], the literal loop (property tests
+//! below and in `fusion/ppc.rs`).
+//!
+//! Memory: one byte per pixel for each table, two in all (demo plan 640 x
+//! 440 px: 2 x 282 KB).
 
 use super::{Feature, FloorMap, RayHit};
 use crate::Vec2;
@@ -35,18 +43,35 @@ fn round_half_away(x: f64) -> usize {
     }
 }
 
-/// Chessboard distance transform (two passes, 8-neighbourhood) of the
-/// obstacle mask, with the outside of the image as obstacle; saturated at
-/// 255. Row-major like `features`.
-pub(crate) fn clearance_px(width: usize, height: usize, features: &[Feature]) -> Vec<u8> {
+/// `x.ceil() as usize` for x >= 0 (NaN -> 0, saturating) without the libm
+/// call: below 2^53 the truncation is exact, above it x is an integer.
+fn ceil_nonneg(x: f64) -> usize {
+    let t = x as usize;
+    if (t as f64) < x {
+        t.saturating_add(1)
+    } else {
+        t
+    }
+}
+
+/// Chessboard distance transform (two passes, 8-neighbourhood) of the mask
+/// of the pixels whose feature is `blocked` (obstacles for [`FloorMap::raycast`],
+/// Walls for [`FloorMap::crosses_wall`]), with the outside of the image as
+/// blocked; saturated at 255. Row-major like `features`.
+pub(crate) fn clearance_px(
+    width: usize,
+    height: usize,
+    features: &[Feature],
+    blocked: impl Fn(Feature) -> bool,
+) -> Vec<u8> {
     let mut d: Vec<u16> = Vec::with_capacity(width * height);
     for j in 0..height {
         for i in 0..width {
             let f = features[j * width + i];
-            d.push(if f.is_obstacle() {
+            d.push(if blocked(f) {
                 0
             } else {
-                // distance to the ring of (obstacle) pixels outside the image
+                // distance to the ring of (blocked) pixels outside the image
                 let edge = (i + 1).min(j + 1).min(width - i).min(height - j);
                 edge.min(255) as u16
             });
@@ -198,6 +223,105 @@ impl FloorMap {
         None
     }
 
+    /// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
+    /// not count; outside the image is Wall), sampled at
+    /// x_k = from + d (k / n), k = 0..=n, d = to - from, n = ceil(|d| /
+    /// step_m) (0.05 m when `step_m` is not > 0), both ends included: the
+    /// particle wall check with `particles_pass_doors`.
+    ///
+    /// Same answer as [`FloorMap::crosses_wall_reference`] for every input:
+    /// the samples it evaluates are the very points of the literal loop (same
+    /// arithmetic), and it skips only samples that the Wall clearance of an
+    /// evaluated point (or of the midpoint, which settles a move in open space
+    /// with one lookup) proves off every Wall (module doc).
+    pub fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = ceil_nonneg(len / step);
+        if n == 0 {
+            return self.wall_at(from + d * 0.0);
+        }
+        let inv_r = 1.0 / self.pixels_per_meter;
+        // Rounding of a sample position and of its ICS image is a few ulps
+        // of the largest magnitude involved: negligible against 1e-6 m on any
+        // plan, and covered by the relative term for absurd coordinates.
+        let margin_m = SKIP_MARGIN_M
+            + 1e-12
+                * (from.x.abs().max(from.y.abs())
+                    + d.x.abs().max(d.y.abs())
+                    + self.height_px as f64 * inv_r);
+        // every sample lies within |d| / 2 of the midpoint
+        if let Some((i, j)) = self.pixel_of(from + d * 0.5) {
+            let c = self.wall_clearance[j * self.width_px + i];
+            if c >= 2 && len * 0.5 < (c - 1) as f64 * inv_r - margin_m {
+                return false;
+            }
+        }
+        let nf = n as f64;
+        // consecutive samples are |d| / n apart
+        let spacing = len / nf;
+        let inv_spacing = nf / len;
+        let mut k = 0usize;
+        while k <= n {
+            let x = from + d * (k as f64 / nf);
+            let Some((i, j)) = self.pixel_of(x) else {
+                return true;
+            };
+            let c = self.wall_clearance[j * self.width_px + i];
+            if c == 0 {
+                return true;
+            }
+            // samples k + m with m spacing < the clearance are off every Wall
+            let mut m = 0usize;
+            let free_m = c.saturating_sub(1) as f64 * inv_r - margin_m;
+            if free_m > 0.0 {
+                // positive: truncation is floor; step back if rounding overshot
+                m = (free_m * inv_spacing) as usize;
+                if m > 0 && m as f64 * spacing >= free_m {
+                    m -= 1;
+                }
+            }
+            match k.checked_add(m).and_then(|v| v.checked_add(1)) {
+                Some(next) => k = next,
+                None => break,
+            }
+        }
+        false
+    }
+
+    /// The literal sample-by-sample loop of [`FloorMap::crosses_wall`]
+    /// (every sample evaluated, no early exit): its oracle, and the
+    /// particle wall check before the Wall clearance table.
+    pub fn crosses_wall_reference(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = (len / step).ceil() as usize;
+        (0..=n).any(|k| {
+            let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
+            self.feature(from + d * t) == Feature::Wall
+        })
+    }
+
+    /// Whether `p` lies on a Wall pixel or outside the image.
+    fn wall_at(&self, p: Vec2) -> bool {
+        match self.pixel_of(p) {
+            Some((i, j)) => self.wall_clearance[j * self.width_px + i] == 0,
+            None => true,
+        }
+    }
+
+    /// Chessboard clearance (pixels, saturated at 255) of pixel (column,
+    /// row) to the nearest Wall pixel or the image border (Doors count as
+    /// free); 0 on Walls and outside the image.
+    pub fn wall_clearance_px(&self, i: usize, j: usize) -> u8 {
+        if i >= self.width_px || j >= self.height_px {
+            return 0;
+        }
+        self.wall_clearance[j * self.width_px + i]
+    }
+
     /// Chessboard clearance (pixels, saturated at 255) of pixel (column,
     /// row) to the nearest obstacle or the image border; 0 on obstacles and
     /// outside the image.
@@ -224,9 +348,10 @@ impl FloorMap {
         free_m > 0.0 && radius_m < free_m
     }
 
-    /// Bytes held by the clearance table.
+    /// Bytes held by the clearance tables (obstacle and Wall: one byte per
+    /// pixel each).
     pub fn clearance_bytes(&self) -> usize {
-        self.clearance.len()
+        self.clearance.len() + self.wall_clearance.len()
     }
 }
 
@@ -265,14 +390,59 @@ mod tests {
         FloorMap::from_features(w, h, r, f)
     }
 
+    /// A w x h map with pseudo-random Walls (share `walls`) and Doors (share
+    /// `doors`), dropped as squares of up to `blob` px so that open areas,
+    /// thick walls and door strips all occur.
+    fn blob_map(
+        w: usize,
+        h: usize,
+        r: f64,
+        seed: u64,
+        walls: f64,
+        doors: f64,
+        blob: usize,
+    ) -> FloorMap {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+        let mut f = vec![Feature::Walkable; w * h];
+        let n = w * h / (blob * blob).max(1);
+        for _ in 0..n {
+            let u: f64 = rng.random();
+            let feature = if u < walls {
+                Feature::Wall
+            } else if u < walls + doors {
+                Feature::Door
+            } else {
+                continue;
+            };
+            let (i0, j0) = (rng.random_range(0..w), rng.random_range(0..h));
+            let (bw, bh) = (rng.random_range(1..=blob), rng.random_range(1..=blob));
+            for j in j0..(j0 + bh).min(h) {
+                for i in i0..(i0 + bw).min(w) {
+                    f[j * w + i] = feature;
+                }
+            }
+        }
+        FloorMap::from_features(w, h, r, f)
+    }
+
     fn brute_clearance(m: &FloorMap, i: usize, j: usize) -> u8 {
+        brute_clearance_of(m, i, j, Feature::is_obstacle)
+    }
+
+    fn brute_clearance_of(
+        m: &FloorMap,
+        i: usize,
+        j: usize,
+        blocked: impl Fn(Feature) -> bool,
+    ) -> u8 {
         let (w, h) = (m.width_px() as isize, m.height_px() as isize);
         let (i, j) = (i as isize, j as isize);
         let mut best = i + 1;
         best = best.min(j + 1).min(w - i).min(h - j);
         for jj in 0..h {
             for ii in 0..w {
-                if m.feature_px(ii, jj).is_obstacle() {
+                if blocked(m.feature_px(ii, jj)) {
                     best = best.min((ii - i).abs().max((jj - j).abs()));
                 }
             }
@@ -314,7 +484,7 @@ mod tests {
                 }
             }
         }
-        assert_eq!(demo().clearance_bytes(), 640 * 440);
+        assert_eq!(demo().clearance_bytes(), 2 * 640 * 440);
         // 0 exactly on obstacles
         let m = random_map(37, 23, 2.0, 4, 0.1);
         for j in 0..23 {
@@ -322,6 +492,113 @@ mod tests {
                 let obstacle = m.feature_px(i as isize, j as isize).is_obstacle();
                 assert_eq!(m.clearance_px(i, j) == 0, obstacle, "({i}, {j})");
             }
+        }
+    }
+
+    #[test]
+    fn wall_clearance_is_the_chessboard_distance_to_walls_or_border() {
+        let maps = [
+            random_map(37, 23, 2.0, 1, 0.02),
+            random_map(37, 23, 2.0, 2, 0.1),
+            random_map(37, 23, 2.0, 3, 0.0),
+            blob_map(41, 29, 1.0, 4, 0.3, 0.5, 6),
+        ];
+        for (k, m) in maps.iter().enumerate() {
+            for j in 0..m.height_px() {
+                for i in 0..m.width_px() {
+                    let want = brute_clearance_of(m, i, j, |f| f == Feature::Wall);
+                    assert_eq!(m.wall_clearance_px(i, j), want, "map {k} pixel ({i}, {j})");
+                    let wall = m.feature_px(i as isize, j as isize) == Feature::Wall;
+                    assert_eq!(want == 0, wall);
+                    // Doors are free: never below the obstacle clearance
+                    assert!(want >= m.clearance_px(i, j));
+                }
+            }
+        }
+        assert_eq!(maps[0].wall_clearance_px(37, 0), 0);
+    }
+
+    /// Moves the literal loop and the skipping walk must agree on: zero
+    /// length, NaN and infinite ends, huge coordinates, odd steps.
+    #[test]
+    fn crosses_wall_equals_reference_on_special_inputs() {
+        let m = demo();
+        let v = Vec2::new;
+        let (nan, inf) = (f64::NAN, f64::INFINITY);
+        let pts = [
+            v(3.0, 20.5),
+            v(3.7, 20.5),
+            v(30.0, 20.0),
+            v(0.05, 0.05),
+            v(63.99, 43.99),
+            v(64.0, 44.0),
+            v(-0.0, 0.0),
+            v(-1e-300, 10.0),
+            v(1e15, 20.0),
+            v(-1e15, 20.0),
+            v(1e300, -1e300),
+            v(nan, 1.0),
+            v(inf, 20.0),
+            v(-inf, 20.0),
+        ];
+        for a in pts {
+            for b in pts {
+                for step in [0.05, 0.0, -1.0, 0.3, 1e-3, nan, inf] {
+                    let len = (b - a).norm();
+                    let s = if step > 0.0 { step } else { 0.05 };
+                    // the reference visits every sample: keep it bounded
+                    if len.is_finite() && len / s > 1e6 {
+                        continue;
+                    }
+                    assert_eq!(
+                        m.crosses_wall(a, b, step),
+                        m.crosses_wall_reference(a, b, step),
+                        "{a:?} -> {b:?} step {step}"
+                    );
+                }
+            }
+        }
+        for (a, b) in [(v(3.0, 20.5), v(3.0, 20.5)), (v(0.0, 0.0), v(0.0, 0.0))] {
+            assert_eq!(
+                m.crosses_wall(a, b, 0.05),
+                m.crosses_wall_reference(a, b, 0.05)
+            );
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(4000))]
+        /// The particle wall check: the skipping walk answers exactly as the
+        /// literal loop on the demo plan, for particle-sized moves and long
+        /// segments (also leaving the image) and any step.
+        #[test]
+        fn crosses_wall_equals_reference_on_demo(
+            x1 in -2.0f64..66.0, y1 in -2.0f64..46.0,
+            dx in -1.5f64..1.5, dy in -1.5f64..1.5, long in 0.0f64..10.0,
+            step in prop_oneof![Just(0.05f64), 0.005f64..1.5, Just(0.0)],
+        ) {
+            let m = demo();
+            let a = Vec2::new(x1, y1);
+            for b in [a + Vec2::new(dx, dy), a + Vec2::new(dx, dy) * long] {
+                prop_assert_eq!(m.crosses_wall(a, b, step), m.crosses_wall_reference(a, b, step));
+            }
+        }
+
+        /// Same on random maps of any resolution, Wall and Door density.
+        #[test]
+        fn crosses_wall_equals_reference_on_random_maps(
+            seed in 0u64..1000, walls in 0.0f64..0.3, doors in 0.0f64..0.5,
+            blob in 1usize..12, r in 0.5f64..20.0,
+            fx in -0.1f64..1.1, fy in -0.1f64..1.1, tx in -0.2f64..1.2, ty in -0.2f64..1.2,
+            step in 0.01f64..0.5,
+        ) {
+            let m = blob_map(60, 40, r, seed, walls, doors, blob);
+            let (w, h) = (m.width_m(), m.height_m());
+            let (a, b) = (Vec2::new(fx * w, fy * h), Vec2::new(tx * w, ty * h));
+            prop_assert_eq!(m.crosses_wall(a, b, step), m.crosses_wall_reference(a, b, step));
+            // a particle-sized move from the same start
+            let c = a + (b - a) * (0.7 / (b - a).norm().max(0.7));
+            prop_assert_eq!(m.crosses_wall(a, c, step), m.crosses_wall_reference(a, c, step));
         }
     }
 

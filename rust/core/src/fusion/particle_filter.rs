@@ -69,6 +69,9 @@ pub struct ParticleFilter {
     scratch_offset: Vec<f64>,
     scratch_scale: Vec<f64>,
     index_scratch: Vec<usize>,
+    /// Uniform draws of one predict (step length, heading), reused.
+    draw_s: Vec<f64>,
+    draw_th: Vec<f64>,
     rng: Pcg64,
     count: usize,
     step_noise_m: f64,
@@ -95,6 +98,8 @@ impl ParticleFilter {
             scratch_offset: Vec::with_capacity(count),
             scratch_scale: Vec::with_capacity(count),
             index_scratch: Vec::with_capacity(count),
+            draw_s: Vec::with_capacity(count),
+            draw_th: Vec::with_capacity(count),
             rng: Pcg64::seed_from_u64(seed),
             count,
             step_noise_m: config.step_noise_m,
@@ -183,9 +188,23 @@ impl ParticleFilter {
             // series accurate to ~1e-16 on |nu| <= 0.5 (no libm call per
             // particle); same draws in the same order as the general branch
             let (sy, cy) = yaw_rad.sin_cos();
-            for p in &mut self.particles {
-                let nu_s = ds * (2.0 * self.rng.random::<f64>() - 1.0);
-                let nu_th = dth * (2.0 * self.rng.random::<f64>() - 1.0);
+            // The draws first (one serial chain through the RNG state), then
+            // the arithmetic, which has no dependence between particles and
+            // vectorises: the same operations on the same values.
+            self.draw_s.clear();
+            self.draw_th.clear();
+            for _ in 0..self.particles.len() {
+                self.draw_s.push(self.rng.random::<f64>());
+                self.draw_th.push(self.rng.random::<f64>());
+            }
+            for ((p, &u_s), &u_th) in self
+                .particles
+                .iter_mut()
+                .zip(&self.draw_s)
+                .zip(&self.draw_th)
+            {
+                let nu_s = ds * (2.0 * u_s - 1.0);
+                let nu_th = dth * (2.0 * u_th - 1.0);
                 let len = (step_length_m + nu_s).max(0.0);
                 let (sn, cn) = small_sin_cos(nu_th);
                 let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
@@ -296,28 +315,40 @@ impl ParticleFilter {
             return;
         }
         let inv_m = 1.0 / m as f64;
+        // Without per-particle biases every offset is 0 and every scale 1
+        // (init_at, and nothing else writes them but copies): copying them
+        // along would change nothing.
+        let biases = self.has_particle_biases();
         self.scratch.clear();
         self.scratch_offset.clear();
         self.scratch_scale.clear();
         let mut cum = self.weights[0];
         let mut j = 0usize;
         let u0: f64 = self.rng.random::<f64>();
-        for i in 0..m {
+        // i as f64, counted in f64 (exact below 2^53; the usize conversion
+        // is several instructions on x86-64)
+        let mut fi = 0.0f64;
+        for _ in 0..m {
             let u = match self.resampling {
-                Resampling::Systematic => (i as f64 + u0) * inv_m,
-                Resampling::Stratified => (i as f64 + self.rng.random::<f64>()) * inv_m,
+                Resampling::Systematic => (fi + u0) * inv_m,
+                Resampling::Stratified => (fi + self.rng.random::<f64>()) * inv_m,
             };
+            fi += 1.0;
             while u > cum && j + 1 < m {
                 j += 1;
                 cum += self.weights[j];
             }
             self.scratch.push(self.particles[j]);
-            self.scratch_offset.push(self.heading_offset[j]);
-            self.scratch_scale.push(self.step_scale[j]);
+            if biases {
+                self.scratch_offset.push(self.heading_offset[j]);
+                self.scratch_scale.push(self.step_scale[j]);
+            }
         }
         std::mem::swap(&mut self.particles, &mut self.scratch);
-        std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
-        std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
+        if biases {
+            std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
+            std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
+        }
         self.weights.iter_mut().for_each(|w| *w = inv_m);
     }
 
@@ -371,6 +402,8 @@ impl ParticleFilter {
         }
         // bad indices in increasing order, as drawn before
         self.index_scratch[n_good..].reverse();
+        // (offsets and scales are all 0 and 1 without biases: see resample)
+        let biases = self.has_particle_biases();
         for b in n_good..m {
             let i = self.index_scratch[b];
             if n_good == 0 {
@@ -379,8 +412,10 @@ impl ParticleFilter {
                 let k = ((self.rng.random::<f64>() * n_good as f64) as usize).min(n_good - 1);
                 let src = self.index_scratch[k];
                 self.particles[i] = self.particles[src];
-                self.heading_offset[i] = self.heading_offset[src];
-                self.step_scale[i] = self.step_scale[src];
+                if biases {
+                    self.heading_offset[i] = self.heading_offset[src];
+                    self.step_scale[i] = self.step_scale[src];
+                }
             }
         }
         n_bad

@@ -380,6 +380,7 @@ pub fn crosses_wall<M: PlanQueries + ?Sized>(map: &M, from: Vec2, to: Vec2, step
 }
 
 impl PlanQueries for FloorMap {
+    #[inline]
     fn feature_at(&self, p: Vec2) -> Feature {
         self.feature(p)
     }

@@ -54,6 +54,24 @@ fn ceil_nonneg(x: f64) -> usize {
     }
 }
 
+/// The largest whole m >= 0 with m * spacing < free_m (0 when free_m <= 0),
+/// as f64; `inv_spacing` is 1 / spacing (maybe rounded). The quotient may
+/// saturate (a smaller m, which only skips less).
+fn skip_count(free_m: f64, spacing: f64, inv_spacing: f64) -> f64 {
+    // (false for NaN)
+    if free_m > 0.0 {
+        // positive: truncation is floor; step back if rounding overshot
+        let m = ((free_m * inv_spacing) as i64) as f64;
+        if m > 0.0 && m * spacing >= free_m {
+            m - 1.0
+        } else {
+            m
+        }
+    } else {
+        0.0
+    }
+}
+
 /// Chessboard distance transform (two passes, 8-neighbourhood) of the mask
 /// of the pixels whose feature is `blocked` (obstacles for [`FloorMap::raycast`],
 /// Walls for [`FloorMap::crosses_wall`]), with the outside of the image as
@@ -236,13 +254,7 @@ impl FloorMap {
     /// with one lookup) proves off every Wall (module doc).
     pub fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
         let d = to - from;
-        let len = d.norm();
-        let step = if step_m > 0.0 { step_m } else { 0.05 };
-        let n = ceil_nonneg(len / step);
-        if n == 0 {
-            return self.wall_at(from + d * 0.0);
-        }
-        let inv_r = 1.0 / self.pixels_per_meter;
+        let inv_r = self.meters_per_pixel;
         // Rounding of a sample position and of its ICS image is a few ulps
         // of the largest magnitude involved: negligible against 1e-6 m on any
         // plan, and covered by the relative term for absurd coordinates.
@@ -250,44 +262,93 @@ impl FloorMap {
             + 1e-12
                 * (from.x.abs().max(from.y.abs())
                     + d.x.abs().max(d.y.abs())
-                    + self.height_px as f64 * inv_r);
-        // every sample lies within |d| / 2 of the midpoint
-        if let Some((i, j)) = self.pixel_of(from + d * 0.5) {
-            let c = self.wall_clearance[j * self.width_px + i];
-            if c >= 2 && len * 0.5 < (c - 1) as f64 * inv_r - margin_m {
-                return false;
+                    + self.height_f * inv_r);
+        // Every sample lies within |d| / 2 of the midpoint: one lookup
+        // settles a move in open space (compared squared, without the
+        // square root; its relative rounding, ~1e-16, is far inside the margin).
+        let mut mid_free_m = 0.0;
+        if let Some(k) = self.index_of(from + d * 0.5) {
+            let free_m = f64::from(self.wall_clearance[k]) * inv_r - inv_r - margin_m;
+            if free_m > 0.0 {
+                if d.norm_squared() * 0.25 < free_m * free_m {
+                    return false;
+                }
+                mid_free_m = free_m;
             }
         }
+        // Sample 0 is from + d (0 / n) = from + d 0 whatever n (n = 0
+        // included), and sample n is from + d (n / n) = from + d 1 for n >= 1:
+        // their lookups need not wait for n (a square root and a division).
+        let c_first = self.wall_clearance_or_0(from + d * 0.0);
+        let c_last = self.wall_clearance_or_0(from + d * 1.0);
+        if c_first == 0 {
+            return true;
+        }
+        let len = d.norm();
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = ceil_nonneg(len / step);
+        if n == 0 {
+            // sample 0 alone, and it is off every Wall
+            return false;
+        }
+        if c_last == 0 {
+            return true;
+        }
+        if n > 1 << 50 {
+            // (the sample counters in f64 below, up to 3 n, would not all be
+            // exact)
+            return self.crosses_wall_reference(from, to, step_m);
+        }
+        // Sample indices as f64 (exact: integers below 2^53), so k / n is the
+        // very quotient of the literal loop. Consecutive samples are
+        // spacing = |d| / n apart, and sample k lies |k - n/2| spacing from
+        // the midpoint: those with |k - n/2| < h are off every Wall. Two
+        // walks, from either end, cover the rest, each skipping what the
+        // clearance of its samples proves free; they are independent chains
+        // of dependent loads, which the processor runs side by side.
+        // (Evaluating a sample that was proved free anyway is harmless: only
+        // skipping needs the proof.)
         let nf = n as f64;
-        // consecutive samples are |d| / n apart
         let spacing = len / nf;
         let inv_spacing = nf / len;
-        let mut k = 0usize;
-        while k <= n {
-            let x = from + d * (k as f64 / nf);
-            let Some((i, j)) = self.pixel_of(x) else {
-                return true;
-            };
-            let c = self.wall_clearance[j * self.width_px + i];
-            if c == 0 {
-                return true;
+        let skip = |c: u8| {
+            skip_count(
+                f64::from(c) * inv_r - inv_r - margin_m,
+                spacing,
+                inv_spacing,
+            )
+        };
+        let h = skip_count(mid_free_m, spacing, inv_spacing).min(nf);
+        // forward: samples k with 2k <= n - 2h; backward: 2k >= n + 2h
+        let (lim_fwd, lim_back) = (nf - 2.0 * h, nf + 2.0 * h);
+        let (mut kf, mut kb) = (skip(c_first) + 1.0, nf - skip(c_last) - 1.0);
+        loop {
+            let fwd = 2.0 * kf <= lim_fwd && kf <= kb;
+            let back = 2.0 * kb >= lim_back && kb >= kf;
+            if !(fwd || back) {
+                // every sample in [kf, kb] (if any) is within h of n/2
+                return false;
             }
-            // samples k + m with m spacing < the clearance are off every Wall
-            let mut m = 0usize;
-            let free_m = c.saturating_sub(1) as f64 * inv_r - margin_m;
-            if free_m > 0.0 {
-                // positive: truncation is floor; step back if rounding overshot
-                m = (free_m * inv_spacing) as usize;
-                if m > 0 && m as f64 * spacing >= free_m {
-                    m -= 1;
+            if fwd {
+                let c = self.wall_clearance_or_0(from + d * (kf / nf));
+                if c == 0 {
+                    return true;
                 }
+                kf += skip(c) + 1.0;
             }
-            match k.checked_add(m).and_then(|v| v.checked_add(1)) {
-                Some(next) => k = next,
-                None => break,
+            if back {
+                let c = self.wall_clearance_or_0(from + d * (kb / nf));
+                if c == 0 {
+                    return true;
+                }
+                kb -= skip(c) + 1.0;
             }
         }
-        false
+    }
+
+    /// The Wall clearance of the pixel containing `p`; 0 outside the image.
+    fn wall_clearance_or_0(&self, p: Vec2) -> u8 {
+        self.index_of(p).map_or(0, |k| self.wall_clearance[k])
     }
 
     /// The literal sample-by-sample loop of [`FloorMap::crosses_wall`]
@@ -302,14 +363,6 @@ impl FloorMap {
             let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
             self.feature(from + d * t) == Feature::Wall
         })
-    }
-
-    /// Whether `p` lies on a Wall pixel or outside the image.
-    fn wall_at(&self, p: Vec2) -> bool {
-        match self.pixel_of(p) {
-            Some((i, j)) => self.wall_clearance[j * self.width_px + i] == 0,
-            None => true,
-        }
     }
 
     /// Chessboard clearance (pixels, saturated at 255) of pixel (column,

@@ -191,11 +191,14 @@ impl ParticleFilter {
             // The draws first (one serial chain through the RNG state), then
             // the arithmetic, which has no dependence between particles and
             // vectorises: the same operations on the same values.
-            self.draw_s.clear();
-            self.draw_th.clear();
-            for _ in 0..self.particles.len() {
-                self.draw_s.push(self.rng.random::<f64>());
-                self.draw_th.push(self.rng.random::<f64>());
+            let m = self.particles.len();
+            self.draw_s.resize(m, 0.0);
+            self.draw_th.resize(m, 0.0);
+            // (disjoint borrows: the RNG state may stay in registers)
+            let rng = &mut self.rng;
+            for (u_s, u_th) in self.draw_s.iter_mut().zip(&mut self.draw_th) {
+                *u_s = rng.random::<f64>();
+                *u_th = rng.random::<f64>();
             }
             for ((p, &u_s), &u_th) in self
                 .particles
@@ -276,6 +279,24 @@ impl ParticleFilter {
         n
     }
 
+    /// [`ParticleFilter::penalize_moves`] with the crossings already known:
+    /// multiplies by `factor` the weight of every particle i with
+    /// `crossed[i]`, then renormalises; same arithmetic. Returns how many
+    /// were penalised.
+    pub fn penalize_flagged(&mut self, crossed: &[bool], factor: f64) -> usize {
+        let mut n = 0;
+        for (w, &c) in self.weights.iter_mut().zip(crossed) {
+            if c {
+                *w *= factor;
+                n += 1;
+            }
+        }
+        if n > 0 {
+            self.normalize();
+        }
+        n
+    }
+
     /// Weights of eq. 36 against the BLE position `x_b`, normalised to sum 1.
     /// The constant 1/sqrt(2 pi sigma^2) cancels in the normalisation; the
     /// exponent is shifted by its maximum so far-away fixes do not underflow.
@@ -319,33 +340,41 @@ impl ParticleFilter {
         // (init_at, and nothing else writes them but copies): copying them
         // along would change nothing.
         let biases = self.has_particle_biases();
-        self.scratch.clear();
-        self.scratch_offset.clear();
-        self.scratch_scale.clear();
-        let mut cum = self.weights[0];
+        // the source index of every new particle first (disjoint borrows:
+        // the loop state stays in registers), then the copies
+        let weights = &self.weights;
+        let rng = &mut self.rng;
+        let resampling = self.resampling;
+        self.index_scratch.resize(m, 0);
+        let mut cum = weights[0];
         let mut j = 0usize;
-        let u0: f64 = self.rng.random::<f64>();
+        let u0: f64 = rng.random::<f64>();
         // i as f64, counted in f64 (exact below 2^53; the usize conversion
         // is several instructions on x86-64)
         let mut fi = 0.0f64;
-        for _ in 0..m {
-            let u = match self.resampling {
+        for slot in &mut self.index_scratch {
+            let u = match resampling {
                 Resampling::Systematic => (fi + u0) * inv_m,
-                Resampling::Stratified => (fi + self.rng.random::<f64>()) * inv_m,
+                Resampling::Stratified => (fi + rng.random::<f64>()) * inv_m,
             };
             fi += 1.0;
             while u > cum && j + 1 < m {
                 j += 1;
-                cum += self.weights[j];
+                cum += weights[j];
             }
-            self.scratch.push(self.particles[j]);
-            if biases {
-                self.scratch_offset.push(self.heading_offset[j]);
-                self.scratch_scale.push(self.step_scale[j]);
-            }
+            *slot = j;
         }
+        let src = &self.index_scratch;
+        self.scratch.clear();
+        self.scratch.extend(src.iter().map(|&j| self.particles[j]));
         std::mem::swap(&mut self.particles, &mut self.scratch);
         if biases {
+            self.scratch_offset.clear();
+            self.scratch_offset
+                .extend(src.iter().map(|&j| self.heading_offset[j]));
+            self.scratch_scale.clear();
+            self.scratch_scale
+                .extend(src.iter().map(|&j| self.step_scale[j]));
             std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
             std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
         }

@@ -62,6 +62,18 @@ pub trait PlanQueries {
             self.feature_at(from + d * t) == Feature::Wall
         })
     }
+    /// [`PlanQueries::crosses_wall`] of every move `from[i]` -> `to[i]` into
+    /// `out[i]` (`out` resized to the shorter slice's length). The default
+    /// asks `crosses_wall` move by move; [`FloorMap`] runs its midpoint test
+    /// over blocks of moves first ([`FloorMap::crosses_wall_each`]).
+    fn crosses_wall_each(&self, from: &[Vec2], to: &[Vec2], step_m: f64, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend(
+            from.iter()
+                .zip(to)
+                .map(|(a, b)| self.crosses_wall(*a, *b, step_m)),
+        );
+    }
 }
 
 /// Whether a particle standing on `f` is invalid (replaced after PPC):
@@ -379,6 +391,19 @@ pub fn crosses_wall<M: PlanQueries + ?Sized>(map: &M, from: Vec2, to: Vec2, step
     map.crosses_wall(from, to, step_m)
 }
 
+/// [`crosses_wall`] of every particle move `from[i]` -> `to[i]` into
+/// `out[i]` (resized): the engine's particle wall check, one call per step
+/// ([`PlanQueries::crosses_wall_each`]).
+pub fn crosses_wall_each<M: PlanQueries + ?Sized>(
+    map: &M,
+    from: &[Vec2],
+    to: &[Vec2],
+    step_m: f64,
+    out: &mut Vec<bool>,
+) {
+    map.crosses_wall_each(from, to, step_m, out)
+}
+
 impl PlanQueries for FloorMap {
     #[inline]
     fn feature_at(&self, p: Vec2) -> Feature {
@@ -404,6 +429,10 @@ impl PlanQueries for FloorMap {
 
     fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
         FloorMap::crosses_wall(self, from, to, step_m)
+    }
+
+    fn crosses_wall_each(&self, from: &[Vec2], to: &[Vec2], step_m: f64, out: &mut Vec<bool>) {
+        FloorMap::crosses_wall_each(self, from, to, step_m, out)
     }
 
     fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {

@@ -645,6 +645,43 @@ mod tests {
     }
 
     #[test]
+    fn penalize_flagged_equals_penalize_moves() {
+        let mut a = filter(500, Resampling::Systematic, 4);
+        a.init_at(Vec2::zeros(), 3.0, |_| true);
+        a.weight(Vec2::new(1.0, 0.5));
+        let mut b = a.clone();
+        let before = vec![Vec2::zeros(); 500];
+        let crossed = |_: Vec2, p: Vec2| p.x > 1.0 && p.y < 0.5;
+        let flags: Vec<bool> = a
+            .particles()
+            .iter()
+            .map(|p| crossed(Vec2::zeros(), *p))
+            .collect();
+        for factor in [0.01, 0.0, 1.0] {
+            let n = a.penalize_moves(&before, factor, crossed);
+            assert!(n > 0);
+            assert_eq!(b.penalize_flagged(&flags, factor), n);
+            assert_eq!(a.weights(), b.weights());
+        }
+    }
+
+    #[test]
+    fn without_biases_offsets_and_scales_stay_0_and_1() {
+        // resample and replace_invalid skip copying them then
+        let mut pf = filter(300, Resampling::Stratified, 2);
+        pf.init_at(Vec2::zeros(), 4.0, |_| true);
+        for k in 0..5 {
+            pf.predict(0.7, k as f64);
+            pf.weight(Vec2::new(1.0, 1.0));
+            pf.resample();
+            pf.replace_invalid(|p| p.x < 0.0, Vec2::zeros());
+            assert_eq!(pf.heading_offsets().len(), 300);
+            assert!(pf.heading_offsets().iter().all(|o| *o == 0.0));
+            assert!(pf.step_scales().iter().all(|s| *s == 1.0));
+        }
+    }
+
+    #[test]
     fn init_puts_all_particles_on_start() {
         let mut pf = filter(100, Resampling::Systematic, 1);
         pf.init_at(Vec2::new(3.0, 4.0), 0.0, |_| true);

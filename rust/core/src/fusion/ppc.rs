@@ -762,6 +762,55 @@ mod tests {
         }
     }
 
+    /// The map through the trait's default methods only (no clearance).
+    struct Plain<'a>(&'a FloorMap);
+
+    impl PlanQueries for Plain<'_> {
+        fn feature_at(&self, p: Vec2) -> Feature {
+            self.0.feature(p)
+        }
+        fn raycast_from(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
+            self.0.raycast(from, to, step_m)
+        }
+        fn obstacle_normal(&self, p: Vec2) -> Option<Vec2> {
+            self.0.obstacle_normal(p)
+        }
+        fn room_id(&self, p: Vec2) -> Option<u32> {
+            self.0.room_of(p)
+        }
+        fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {
+            PlanQueries::doors_near(self.0, p, radius_m)
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+        /// The trait's default particle wall check (every sample) and the
+        /// FloorMap one (clearance tables, blocks) answer alike.
+        #[test]
+        fn default_and_floor_map_crosses_wall_each_agree(
+            seed in 0u64..1000, count in 0usize..200,
+        ) {
+            use rand::{RngExt, SeedableRng};
+            let m = two_rooms();
+            let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+            let from: Vec<Vec2> = (0..count)
+                .map(|_| Vec2::new(rng.random::<f64>() * 10.0, rng.random::<f64>() * 6.0))
+                .collect();
+            let to: Vec<Vec2> = from
+                .iter()
+                .map(|a| a + step(rng.random::<f64>() * 1.5, rng.random::<f64>() * 360.0))
+                .collect();
+            let (mut fast, mut plain) = (Vec::new(), Vec::new());
+            crosses_wall_each(&m, &from, &to, 0.05, &mut fast);
+            crosses_wall_each(&Plain(&m), &from, &to, 0.05, &mut plain);
+            prop_assert_eq!(&fast, &plain);
+            for i in 0..count {
+                prop_assert_eq!(fast[i], crosses_wall(&Plain(&m), from[i], to[i], 0.05));
+            }
+        }
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
         /// Whatever the step, the cloud and x_B, PPC leaves the position and

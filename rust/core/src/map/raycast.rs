@@ -312,12 +312,10 @@ impl FloorMap {
         let inv_r = self.meters_per_pixel;
         // Rounding of a sample position and of its ICS image is a few ulps
         // of the largest magnitude involved: negligible against 1e-6 m on any
-        // plan, and covered by the relative term for absurd coordinates.
+        // plan, and covered by the relative term for absurd coordinates
+        // (sums of |.|: at least the largest, and cheaper than max).
         let margin_m = SKIP_MARGIN_M
-            + 1e-12
-                * (from.x.abs().max(from.y.abs())
-                    + d.x.abs().max(d.y.abs())
-                    + self.height_f * inv_r);
+            + 1e-12 * (from.x.abs() + from.y.abs() + d.x.abs() + d.y.abs() + self.height_f * inv_r);
         // pixel_of(from + d / 2), with `&` for `&&` and selects for branches
         let q = self.mcs_to_ics(from + d * 0.5);
         let inside = (q.x >= 0.0) & (q.y >= 0.0) & (q.x < self.width_f) & (q.y < self.height_f);

@@ -58,7 +58,7 @@ fn demo_or_office() -> (FloorMap, &'static str) {
 /// Per-particle wall check of a fusion step.
 #[derive(Clone, Copy, PartialEq)]
 enum WallCheck {
-    /// The engine's default: `ppc::crosses_wall` (doors pass,
+    /// The engine's default: `ppc::crosses_wall_each` (doors pass,
     /// `particles_pass_doors`), crossing particles keep
     /// `wall_crossing_weight` of their weight, replacement counts Wall
     /// pixels only.
@@ -103,6 +103,7 @@ fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
     let mut prev = start;
     let mut k = 0u64;
     let mut before: Vec<Vec2> = Vec::new();
+    let mut crossed: Vec<bool> = Vec::new();
     c.bench_function(name, |b| {
         common::run(b, || {
             // Walk east along the corridor, weaving into the walls now and then.
@@ -118,9 +119,9 @@ fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
             let step = cfg.ppc.raycast_step_m;
             match check {
                 WallCheck::Default => {
-                    pf.penalize_moves(&before, cfg.wall_crossing_weight, |a, b| {
-                        ppc::crosses_wall(&map, a, b, step)
-                    });
+                    // as the engine (engines/fpbp.rs) does it
+                    ppc::crosses_wall_each(&map, &before, pf.particles(), step, &mut crossed);
+                    pf.penalize_flagged(&crossed, cfg.wall_crossing_weight);
                 }
                 WallCheck::Raycast => {
                     pf.penalize_moves(&before, 0.0, |a, b| map.raycast(a, b, step).is_some());

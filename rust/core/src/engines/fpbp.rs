@@ -117,6 +117,8 @@ pub struct FusionSide {
     other_floor: Option<(i32, Vec<Vec2>)>,
     /// Particle positions before the last move (particle wall check).
     before: Vec<Vec2>,
+    /// Which particles' last move crossed a Wall (particle wall check).
+    crossed: Vec<bool>,
     /// Consecutive fresh x_B far from the fused position (re-localisation).
     far_fixes: Vec<Vec2>,
     /// x^(k-1): the last output position.
@@ -162,6 +164,7 @@ impl FusionSide {
             other_floor: None,
             far_fixes: Vec::new(),
             before: Vec::new(),
+            crossed: Vec::new(),
             prev: None,
             heading_rad: 0.0,
             pose: None,
@@ -366,10 +369,16 @@ impl FusionSide {
             if check && let Some(m) = map {
                 let step_m = self.cfg.ppc.raycast_step_m;
                 if self.cfg.particles_pass_doors {
+                    // ppc::crosses_wall of every move, in one call
+                    ppc::crosses_wall_each(
+                        m,
+                        &self.before,
+                        self.pf.particles(),
+                        step_m,
+                        &mut self.crossed,
+                    );
                     self.pf
-                        .penalize_moves(&self.before, self.cfg.wall_crossing_weight, |a, b| {
-                            ppc::crosses_wall(m, a, b, step_m)
-                        });
+                        .penalize_flagged(&self.crossed, self.cfg.wall_crossing_weight);
                 } else {
                     self.pf
                         .penalize_moves(&self.before, self.cfg.wall_crossing_weight, |a, b| {

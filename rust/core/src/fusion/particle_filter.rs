@@ -69,6 +69,9 @@ pub struct ParticleFilter {
     scratch_offset: Vec<f64>,
     scratch_scale: Vec<f64>,
     index_scratch: Vec<usize>,
+    /// Uniform draws of one predict (step length, heading), reused.
+    draw_s: Vec<f64>,
+    draw_th: Vec<f64>,
     rng: Pcg64,
     count: usize,
     step_noise_m: f64,
@@ -105,6 +108,8 @@ impl ParticleFilter {
             scratch_offset: Vec::with_capacity(count),
             scratch_scale: Vec::with_capacity(count),
             index_scratch: Vec::with_capacity(count),
+            draw_s: Vec::with_capacity(count),
+            draw_th: Vec::with_capacity(count),
             rng: Pcg64::seed_from_u64(seed),
             count,
             step_noise_m: config.step_noise_m,
@@ -218,9 +223,26 @@ impl ParticleFilter {
             // series accurate to ~1e-16 on |nu| <= 0.5 (no libm call per
             // particle); same draws in the same order as the general branch
             let (sy, cy) = yaw_rad.sin_cos();
-            for p in &mut self.particles {
-                let nu_s = ds * (2.0 * self.rng.random::<f64>() - 1.0);
-                let nu_th = dth * (2.0 * self.rng.random::<f64>() - 1.0);
+            // The draws first (one serial chain through the RNG state), then
+            // the arithmetic, which has no dependence between particles and
+            // vectorises: the same operations on the same values.
+            let m = self.particles.len();
+            self.draw_s.resize(m, 0.0);
+            self.draw_th.resize(m, 0.0);
+            // (disjoint borrows: the RNG state may stay in registers)
+            let rng = &mut self.rng;
+            for (u_s, u_th) in self.draw_s.iter_mut().zip(&mut self.draw_th) {
+                *u_s = rng.random::<f64>();
+                *u_th = rng.random::<f64>();
+            }
+            for ((p, &u_s), &u_th) in self
+                .particles
+                .iter_mut()
+                .zip(&self.draw_s)
+                .zip(&self.draw_th)
+            {
+                let nu_s = ds * (2.0 * u_s - 1.0);
+                let nu_th = dth * (2.0 * u_th - 1.0);
                 let len = (step_length_m + nu_s).max(0.0);
                 let (sn, cn) = small_sin_cos(nu_th);
                 let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
@@ -289,6 +311,24 @@ impl ParticleFilter {
         let mut n = 0;
         for ((w, p), b) in self.weights.iter_mut().zip(&self.particles).zip(before) {
             if crossed(*b, *p) {
+                *w *= factor;
+                n += 1;
+            }
+        }
+        if n > 0 {
+            self.normalize();
+        }
+        n
+    }
+
+    /// [`ParticleFilter::penalize_moves`] with the crossings already known:
+    /// multiplies by `factor` the weight of every particle i with
+    /// `crossed[i]`, then renormalises; same arithmetic. Returns how many
+    /// were penalised.
+    pub fn penalize_flagged(&mut self, crossed: &[bool], factor: f64) -> usize {
+        let mut n = 0;
+        for (w, &c) in self.weights.iter_mut().zip(crossed) {
+            if c {
                 *w *= factor;
                 n += 1;
             }
@@ -373,28 +413,48 @@ impl ParticleFilter {
             return;
         }
         let inv_m = 1.0 / m as f64;
-        self.scratch.clear();
-        self.scratch_offset.clear();
-        self.scratch_scale.clear();
-        let mut cum = self.weights[0];
+        // Without per-particle biases every offset is 0 and every scale 1
+        // (init_at, and nothing else writes them but copies): copying them
+        // along would change nothing.
+        let biases = self.has_particle_biases();
+        // the source index of every new particle first (disjoint borrows:
+        // the loop state stays in registers), then the copies
+        let weights = &self.weights;
+        let rng = &mut self.rng;
+        let resampling = self.resampling;
+        self.index_scratch.resize(m, 0);
+        let mut cum = weights[0];
         let mut j = 0usize;
-        let u0: f64 = self.rng.random::<f64>();
-        for i in 0..m {
-            let u = match self.resampling {
-                Resampling::Systematic => (i as f64 + u0) * inv_m,
-                Resampling::Stratified => (i as f64 + self.rng.random::<f64>()) * inv_m,
+        let u0: f64 = rng.random::<f64>();
+        // i as f64, counted in f64 (exact below 2^53; the usize conversion
+        // is several instructions on x86-64)
+        let mut fi = 0.0f64;
+        for slot in &mut self.index_scratch {
+            let u = match resampling {
+                Resampling::Systematic => (fi + u0) * inv_m,
+                Resampling::Stratified => (fi + rng.random::<f64>()) * inv_m,
             };
+            fi += 1.0;
             while u > cum && j + 1 < m {
                 j += 1;
-                cum += self.weights[j];
+                cum += weights[j];
             }
-            self.scratch.push(self.particles[j]);
-            self.scratch_offset.push(self.heading_offset[j]);
-            self.scratch_scale.push(self.step_scale[j]);
+            *slot = j;
         }
+        let src = &self.index_scratch;
+        self.scratch.clear();
+        self.scratch.extend(src.iter().map(|&j| self.particles[j]));
         std::mem::swap(&mut self.particles, &mut self.scratch);
-        std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
-        std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
+        if biases {
+            self.scratch_offset.clear();
+            self.scratch_offset
+                .extend(src.iter().map(|&j| self.heading_offset[j]));
+            self.scratch_scale.clear();
+            self.scratch_scale
+                .extend(src.iter().map(|&j| self.step_scale[j]));
+            std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
+            std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
+        }
         self.weights.iter_mut().for_each(|w| *w = inv_m);
     }
 
@@ -448,6 +508,8 @@ impl ParticleFilter {
         }
         // bad indices in increasing order, as drawn before
         self.index_scratch[n_good..].reverse();
+        // (offsets and scales are all 0 and 1 without biases: see resample)
+        let biases = self.has_particle_biases();
         for b in n_good..m {
             let i = self.index_scratch[b];
             if n_good == 0 {
@@ -456,8 +518,10 @@ impl ParticleFilter {
                 let k = ((self.rng.random::<f64>() * n_good as f64) as usize).min(n_good - 1);
                 let src = self.index_scratch[k];
                 self.particles[i] = self.particles[src];
-                self.heading_offset[i] = self.heading_offset[src];
-                self.step_scale[i] = self.step_scale[src];
+                if biases {
+                    self.heading_offset[i] = self.heading_offset[src];
+                    self.step_scale[i] = self.step_scale[src];
+                }
                 if self.accumulates_weights() {
                     self.weights[i] = self.weights[src];
                 }
@@ -813,6 +877,43 @@ mod tests {
             pf.weights()
         );
         assert!((pf.weights()[1] - 1.0 / 3.1).abs() < 1e-12);
+    }
+
+    #[test]
+    fn penalize_flagged_equals_penalize_moves() {
+        let mut a = filter(500, Resampling::Systematic, 4);
+        a.init_at(Vec2::zeros(), 3.0, |_| true);
+        a.weight(Vec2::new(1.0, 0.5));
+        let mut b = a.clone();
+        let before = vec![Vec2::zeros(); 500];
+        let crossed = |_: Vec2, p: Vec2| p.x > 1.0 && p.y < 0.5;
+        let flags: Vec<bool> = a
+            .particles()
+            .iter()
+            .map(|p| crossed(Vec2::zeros(), *p))
+            .collect();
+        for factor in [0.01, 0.0, 1.0] {
+            let n = a.penalize_moves(&before, factor, crossed);
+            assert!(n > 0);
+            assert_eq!(b.penalize_flagged(&flags, factor), n);
+            assert_eq!(a.weights(), b.weights());
+        }
+    }
+
+    #[test]
+    fn without_biases_offsets_and_scales_stay_0_and_1() {
+        // resample and replace_invalid skip copying them then
+        let mut pf = filter(300, Resampling::Stratified, 2);
+        pf.init_at(Vec2::zeros(), 4.0, |_| true);
+        for k in 0..5 {
+            pf.predict(0.7, k as f64);
+            pf.weight(Vec2::new(1.0, 1.0));
+            pf.resample();
+            pf.replace_invalid(|p| p.x < 0.0, Vec2::zeros());
+            assert_eq!(pf.heading_offsets().len(), 300);
+            assert!(pf.heading_offsets().iter().all(|o| *o == 0.0));
+            assert!(pf.step_scales().iter().all(|s| *s == 1.0));
+        }
     }
 
     #[test]

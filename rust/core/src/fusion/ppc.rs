@@ -42,6 +42,38 @@ pub trait PlanQueries {
     fn obstacle_free_within(&self, _p: Vec2, _radius_m: f64) -> bool {
         false
     }
+    /// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
+    /// not count), sampled at from + d (k / n), k = 0..=n, d = to - from,
+    /// n = ceil(|d| / step_m) (0.05 m when `step_m` is not > 0). The default
+    /// evaluates every sample (after the [`PlanQueries::obstacle_free_within`]
+    /// early exit); [`FloorMap`] skips samples by its Wall clearance table
+    /// ([`FloorMap::crosses_wall`], same answer).
+    fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        let d = to - from;
+        let len = d.norm();
+        // every sample lies within |d| of `from`
+        if self.obstacle_free_within(from, len) {
+            return false;
+        }
+        let step = if step_m > 0.0 { step_m } else { 0.05 };
+        let n = (len / step).ceil() as usize;
+        (0..=n).any(|k| {
+            let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
+            self.feature_at(from + d * t) == Feature::Wall
+        })
+    }
+    /// [`PlanQueries::crosses_wall`] of every move `from[i]` -> `to[i]` into
+    /// `out[i]` (`out` resized to the shorter slice's length). The default
+    /// asks `crosses_wall` move by move; [`FloorMap`] runs its midpoint test
+    /// over blocks of moves first ([`FloorMap::crosses_wall_each`]).
+    fn crosses_wall_each(&self, from: &[Vec2], to: &[Vec2], step_m: f64, out: &mut Vec<bool>) {
+        out.clear();
+        out.extend(
+            from.iter()
+                .zip(to)
+                .map(|(a, b)| self.crosses_wall(*a, *b, step_m)),
+        );
+    }
 }
 
 /// Whether a particle standing on `f` is invalid (replaced after PPC):
@@ -353,23 +385,27 @@ pub fn apply_to_particles_with_doors<M: PlanQueries + ?Sized>(
 
 /// Whether the straight move `from` -> `to` meets a Wall pixel (Doors do
 /// not count), sampled at most `step_m` apart as Function 1 does, both ends
-/// included: the particle wall check with `particles_pass_doors`.
+/// included: the particle wall check with `particles_pass_doors`
+/// ([`PlanQueries::crosses_wall`]).
 pub fn crosses_wall<M: PlanQueries + ?Sized>(map: &M, from: Vec2, to: Vec2, step_m: f64) -> bool {
-    let d = to - from;
-    let len = d.norm();
-    // every sample lies within |d| of `from`
-    if map.obstacle_free_within(from, len) {
-        return false;
-    }
-    let step = if step_m > 0.0 { step_m } else { 0.05 };
-    let n = (len / step).ceil() as usize;
-    (0..=n).any(|k| {
-        let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
-        map.feature_at(from + d * t) == Feature::Wall
-    })
+    map.crosses_wall(from, to, step_m)
+}
+
+/// [`crosses_wall`] of every particle move `from[i]` -> `to[i]` into
+/// `out[i]` (resized): the engine's particle wall check, one call per step
+/// ([`PlanQueries::crosses_wall_each`]).
+pub fn crosses_wall_each<M: PlanQueries + ?Sized>(
+    map: &M,
+    from: &[Vec2],
+    to: &[Vec2],
+    step_m: f64,
+    out: &mut Vec<bool>,
+) {
+    map.crosses_wall_each(from, to, step_m, out)
 }
 
 impl PlanQueries for FloorMap {
+    #[inline]
     fn feature_at(&self, p: Vec2) -> Feature {
         self.feature(p)
     }
@@ -389,6 +425,14 @@ impl PlanQueries for FloorMap {
 
     fn obstacle_free_within(&self, p: Vec2, radius_m: f64) -> bool {
         FloorMap::obstacle_free_within(self, p, radius_m)
+    }
+
+    fn crosses_wall(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
+        FloorMap::crosses_wall(self, from, to, step_m)
+    }
+
+    fn crosses_wall_each(&self, from: &[Vec2], to: &[Vec2], step_m: f64, out: &mut Vec<bool>) {
+        FloorMap::crosses_wall_each(self, from, to, step_m, out)
     }
 
     fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {
@@ -715,6 +759,55 @@ mod tests {
                 m.feature(a + d * t) == Feature::Wall
             });
             prop_assert_eq!(crosses_wall(&m, a, b, 0.05), every);
+        }
+    }
+
+    /// The map through the trait's default methods only (no clearance).
+    struct Plain<'a>(&'a FloorMap);
+
+    impl PlanQueries for Plain<'_> {
+        fn feature_at(&self, p: Vec2) -> Feature {
+            self.0.feature(p)
+        }
+        fn raycast_from(&self, from: Vec2, to: Vec2, step_m: f64) -> Option<RayHit> {
+            self.0.raycast(from, to, step_m)
+        }
+        fn obstacle_normal(&self, p: Vec2) -> Option<Vec2> {
+            self.0.obstacle_normal(p)
+        }
+        fn room_id(&self, p: Vec2) -> Option<u32> {
+            self.0.room_of(p)
+        }
+        fn doors_near(&self, p: Vec2, radius_m: f64) -> Vec<Vec2> {
+            PlanQueries::doors_near(self.0, p, radius_m)
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(128))]
+        /// The trait's default particle wall check (every sample) and the
+        /// FloorMap one (clearance tables, blocks) answer alike.
+        #[test]
+        fn default_and_floor_map_crosses_wall_each_agree(
+            seed in 0u64..1000, count in 0usize..200,
+        ) {
+            use rand::{RngExt, SeedableRng};
+            let m = two_rooms();
+            let mut rng = rand_pcg::Pcg64::seed_from_u64(seed);
+            let from: Vec<Vec2> = (0..count)
+                .map(|_| Vec2::new(rng.random::<f64>() * 10.0, rng.random::<f64>() * 6.0))
+                .collect();
+            let to: Vec<Vec2> = from
+                .iter()
+                .map(|a| a + step(rng.random::<f64>() * 1.5, rng.random::<f64>() * 360.0))
+                .collect();
+            let (mut fast, mut plain) = (Vec::new(), Vec::new());
+            crosses_wall_each(&m, &from, &to, 0.05, &mut fast);
+            crosses_wall_each(&Plain(&m), &from, &to, 0.05, &mut plain);
+            prop_assert_eq!(&fast, &plain);
+            for i in 0..count {
+                prop_assert_eq!(fast[i], crosses_wall(&Plain(&m), from[i], to[i], 0.05));
+            }
         }
     }
 

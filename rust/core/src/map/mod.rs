@@ -72,11 +72,18 @@ pub struct RayHit {
 pub struct FloorMap {
     width_px: usize,
     height_px: usize,
+    /// `width_px as f64`, `height_px as f64` (the conversion is not free).
+    width_f: f64,
+    height_f: f64,
     pixels_per_meter: f64,
+    /// 1 / `pixels_per_meter`.
+    meters_per_pixel: f64,
     /// Row-major, row 0 at the top of the image.
     features: Vec<Feature>,
     /// Row-major obstacle clearance per pixel (`raycast.rs`).
     clearance: Vec<u8>,
+    /// Row-major Wall clearance per pixel (Doors count as free; `raycast.rs`).
+    wall_clearance: Vec<u8>,
     /// Row-major room label per pixel ([`NO_ROOM`] on obstacles).
     room_labels: Vec<RoomId>,
     rooms: Vec<Room>,
@@ -123,13 +130,19 @@ impl FloorMap {
         let labels = rooms::label_rooms(width_px, height_px, pixels_per_meter, &features);
         let walkable_pixels = features.iter().filter(|f| **f == Feature::Walkable).count();
         let door_pixels = features.iter().filter(|f| **f == Feature::Door).count();
-        let clearance = raycast::clearance_px(width_px, height_px, &features);
+        let clearance = raycast::clearance_px(width_px, height_px, &features, Feature::is_obstacle);
+        let wall_clearance =
+            raycast::clearance_px(width_px, height_px, &features, |f| f == Feature::Wall);
         let mut map = FloorMap {
             width_px,
             height_px,
+            width_f: width_px as f64,
+            height_f: height_px as f64,
             pixels_per_meter,
+            meters_per_pixel: 1.0 / pixels_per_meter,
             features,
             clearance,
+            wall_clearance,
             room_labels: labels.labels,
             rooms: labels.rooms,
             room_boundary: labels.boundary,
@@ -285,7 +298,7 @@ impl FloorMap {
     pub fn mcs_to_ics(&self, p: Vec2) -> Vec2 {
         Vec2::new(
             p.x * self.pixels_per_meter,
-            self.height_px as f64 - p.y * self.pixels_per_meter,
+            self.height_f - p.y * self.pixels_per_meter,
         )
     }
 
@@ -300,13 +313,18 @@ impl FloorMap {
     /// The pixel (column, row) containing MCS point `p`, if inside the image.
     pub fn pixel_of(&self, p: Vec2) -> Option<(usize, usize)> {
         let q = self.mcs_to_ics(p);
-        if !(q.x >= 0.0 && q.y >= 0.0) {
-            return None;
+        // 0 <= q < (W, H) (false for NaN): truncation is floor there (and
+        // cheaper than a libm call), and q < W <=> floor(q) < W for integer W
+        if q.x >= 0.0 && q.y >= 0.0 && q.x < self.width_f && q.y < self.height_f {
+            Some((q.x as i64 as usize, q.y as i64 as usize))
+        } else {
+            None
         }
-        // q >= 0 here, so truncation is floor (and cheaper than a libm call);
-        // `as` saturates, so huge values fail the bounds test below
-        let (i, j) = (q.x as usize, q.y as usize);
-        (i < self.width_px && j < self.height_px).then_some((i, j))
+    }
+
+    /// Row-major index of the pixel containing `p`, if inside the image.
+    fn index_of(&self, p: Vec2) -> Option<usize> {
+        self.pixel_of(p).map(|(i, j)| j * self.width_px + i)
     }
 
     /// Feature of pixel (column, row); outside the image is Wall.
@@ -319,8 +337,8 @@ impl FloorMap {
 
     /// The map feature function M(x) (eqs. 24-25) as a class; O(1); outside = Wall.
     pub fn feature(&self, p: Vec2) -> Feature {
-        match self.pixel_of(p) {
-            Some((i, j)) => self.features[j * self.width_px + i],
+        match self.index_of(p) {
+            Some(k) => self.features[k],
             None => Feature::Wall,
         }
     }

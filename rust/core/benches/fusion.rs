@@ -37,18 +37,18 @@ fn office() -> FloorMap {
     FloorMap::from_features(w, h, r, f)
 }
 
+/// The demo site (maps/demo, built by the map module), if present.
+fn demo_site() -> Option<fpbp_core::site::Site> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+    let bytes = std::fs::read(dir.join("site.json")).ok()?;
+    let spec = fpbp_core::site::SiteSpec::from_json(&bytes, "site.json").ok()?;
+    fpbp_core::site::Site::build(spec, "site.json", &mut |p: &str| std::fs::read(dir.join(p))).ok()
+}
+
 /// The demo site's plan (maps/demo/plan.png, built by the map module), or
 /// the synthetic office when the file is missing.
 fn demo_or_office() -> (FloorMap, &'static str) {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
-    let built = std::fs::read(dir.join("site.json")).ok().and_then(|bytes| {
-        let spec = fpbp_core::site::SiteSpec::from_json(&bytes, "site.json").ok()?;
-        let site = fpbp_core::site::Site::build(spec, "site.json", &mut |p: &str| {
-            std::fs::read(dir.join(p))
-        })
-        .ok()?;
-        site.floors.into_iter().next()
-    });
+    let built = demo_site().and_then(|site| site.floors.into_iter().next());
     match built {
         Some(m) => (m, "demo"),
         None => (office(), "office"),
@@ -151,6 +151,54 @@ fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
     });
 }
 
+/// The fusion task exactly as the `fpbp` engine runs it: one
+/// `FusionSide::run_steps` call with one PDR step and a fresh x_B (particle
+/// wall check, room-level estimate, room switch, PPC, eq. 44, replacement),
+/// the default config, on the demo site; the walk weaves as above.
+fn fusion_task_step(c: &mut Criterion) {
+    use fpbp_core::ble::task::BleFix;
+    use fpbp_core::engine::{EngineConfig, InitialPosition};
+    use fpbp_core::engines::fpbp::FusionSide;
+    let Some(site) = demo_site() else {
+        eprintln!("fusion_task_step: maps/demo not found, skipped");
+        return;
+    };
+    let site = std::sync::Arc::new(site);
+    let cfg = EngineConfig::default();
+    let start = InitialPosition {
+        x_m: 3.0,
+        y_m: 20.5,
+        floor: 0,
+        heading_rad: None,
+    };
+    let new_side = || FusionSide::new(site.clone(), &cfg, true, Some(start)).unwrap();
+    let mut side = new_side();
+    let mut k = 0i64;
+    c.bench_function("fusion_task_step_1000_particles_engine", |b| {
+        common::run(b, || {
+            k += 1;
+            let t = k * 500_000_000;
+            let yaw = if k % 8 < 4 { 0.6 } else { -0.6 };
+            let prev = side
+                .pose()
+                .map_or(Vec2::new(start.x_m, start.y_m), |p| Vec2::new(p.x_m, p.y_m));
+            let x_b = prev + Vec2::new(1.0, 0.0);
+            let fix = BleFix {
+                t_ns: t,
+                pos: x_b,
+                raw: x_b,
+                floor: 0,
+                beacons: 4,
+            };
+            side.run_steps(t, Some(fix), &[(0.7, yaw)]);
+            if side.pose().is_some_and(|p| p.x_m > 37.0) {
+                side = new_side();
+            }
+            black_box(side.pose())
+        })
+    });
+}
+
 /// The filter alone (move + weight + resample), for comparison.
 fn filter_only(c: &mut Criterion) {
     let cfg = FusionConfig::default();
@@ -167,5 +215,5 @@ fn filter_only(c: &mut Criterion) {
     });
 }
 
-criterion_group!(benches, fusion_step, filter_only);
+criterion_group!(benches, fusion_step, fusion_task_step, filter_only);
 criterion_main!(benches);

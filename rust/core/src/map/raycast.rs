@@ -357,7 +357,7 @@ impl FloorMap {
         if c_last == 0 {
             return true;
         }
-        if n > 1 << 50 {
+        if n as u64 > 1u64 << 50 {
             // (the sample counters in f64 below, up to 3 n, would not all be
             // exact)
             return self.crosses_wall_reference(from, to, step_m);

@@ -420,7 +420,7 @@ impl FusionSide {
                     self.ppc_counts.particles_replaced += n as u64;
                     to
                 }
-                (true, Some(m), None) => {
+                (true, Some(m), None) if self.cfg.ppc.enabled => {
                     let o = ppc::correct(m, prev, x_hat, fix.map(|f| f.pos), &self.cfg.ppc);
                     self.count(o.case);
                     let n = ppc::apply_to_particles_with_doors(
@@ -856,6 +856,39 @@ mod tests {
         }
         // gain 0 leaves the filter exactly as eq. 34 alone
         assert_eq!(lag(0.0, 4), lag(0.0, 4));
+    }
+
+    /// `fusion.ppc.enabled = false` (ablation): Algorithm 2 never runs, the
+    /// drifting track leaves the corridor as bp's does; with it, PPC fires.
+    #[test]
+    fn ppc_can_be_switched_off_for_ablations() {
+        let run = |enabled: bool| {
+            let mut cfg = EngineConfig::default();
+            cfg.fusion.ppc.enabled = enabled;
+            cfg.fusion.particle_wall_check = false;
+            cfg.fusion.room_estimate = false;
+            let init = InitialPosition {
+                x_m: 1.0,
+                y_m: 2.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            let mut side = FusionSide::new(corridor_site(), &cfg, true, Some(init)).unwrap();
+            let mut track = Vec::new();
+            for k in 1..=25i64 {
+                side.run_steps(k * 700_000_000, None, &[(0.7, 0.25)]);
+                let p = side.pose().unwrap();
+                track.push(Vec2::new(p.x_m, p.y_m));
+            }
+            let c = side.ppc_counts;
+            (track, c.free + c.yaw_corrected + c.blocked + c.door_passed)
+        };
+        let map = &corridor_site().floors[0];
+        let (on, fired_on) = run(true);
+        let (off, fired_off) = run(false);
+        assert!(fired_on > 0 && fired_off == 0, "{fired_on} {fired_off}");
+        assert!(on.iter().all(|p| map.is_walkable(*p)));
+        assert!(off.iter().any(|p| !map.is_walkable(*p)));
     }
 
     /// A floor change restarts at the mean of the other floor's x_B, or at

@@ -22,6 +22,11 @@ pub enum Resampling {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct PpcConfig {
+    /// Whether Algorithm 2 runs at all (`fpbp` only). `false` keeps the
+    /// engine's other map extensions (particle wall check, room-level
+    /// estimate and switch) and publishes the estimate x̂ uncorrected: an
+    /// ablation. Default true.
+    pub enabled: bool,
     /// phi: unit rotation angle of the candidate sequence Phi = {±j phi}, rad.
     /// Default 0.1745 (10 degrees).
     pub phi_rad: f64,
@@ -67,6 +72,7 @@ pub struct PpcConfig {
 impl Default for PpcConfig {
     fn default() -> Self {
         PpcConfig {
+            enabled: true,
             phi_rad: 10f64.to_radians(),
             n_angles: 6,
             scale_f: 1.5,

@@ -18,6 +18,16 @@ pub enum Resampling {
     Stratified,
 }
 
+/// `Ok` when `v` is finite and `ok`, else a config error naming the field
+/// `section` + `name`.
+fn in_range(v: f64, ok: bool, section: &str, name: &str, what: &str) -> Result<()> {
+    if v.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(Error::config(format!("{section}{name}"), what))
+    }
+}
+
 /// Parameters of the post-position correction (Algorithm 2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -102,13 +112,7 @@ impl PpcConfig {
 impl PpcConfig {
     /// Checks every field's range; errors name the field.
     pub fn validate(&self) -> Result<()> {
-        let pos = |v: f64, name: &str| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::config(format!("fusion.ppc.{name}"), "must be > 0"))
-            }
-        };
+        let pos = |v: f64, name: &str| in_range(v, v > 0.0, "fusion.ppc.", name, "must be > 0");
         pos(self.phi_rad, "phi_rad")?;
         pos(self.raycast_step_m, "raycast_step_m")?;
         pos(self.door_search_m, "door_search_m")?;
@@ -366,13 +370,7 @@ impl FusionConfig {
                 "must be in 1..=1000000",
             ));
         }
-        let nonneg = |v: f64, name: &str| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(Error::config(format!("fusion.{name}"), "must be >= 0"))
-            }
-        };
+        let nonneg = |v: f64, name: &str| in_range(v, v >= 0.0, "fusion.", name, "must be >= 0");
         nonneg(self.step_noise_m, "step_noise_m")?;
         nonneg(self.heading_noise_rad, "heading_noise_rad")?;
         nonneg(self.init_spread_m, "init_spread_m")?;
@@ -403,20 +401,18 @@ impl FusionConfig {
             return Err(Error::config("fusion.sigma_x_m", "must be > 0"));
         }
         let unit = |v: f64, name: &str| {
-            if v.is_finite() && (0.0..=1.0).contains(&v) {
-                Ok(())
-            } else {
-                Err(Error::config(format!("fusion.{name}"), "must be in [0, 1]"))
-            }
+            in_range(
+                v,
+                (0.0..=1.0).contains(&v),
+                "fusion.",
+                name,
+                "must be in [0, 1]",
+            )
         };
         unit(self.recovery_max_fraction, "recovery_max_fraction")?;
         unit(self.room_switch_mass, "room_switch_mass")?;
         let open_unit = |v: f64, name: &str| {
-            if v.is_finite() && v > 0.0 && v <= 1.0 {
-                Ok(())
-            } else {
-                Err(Error::config(format!("fusion.{name}"), "must be in (0, 1]"))
-            }
+            in_range(v, v > 0.0 && v <= 1.0, "fusion.", name, "must be in (0, 1]")
         };
         open_unit(self.resample_ess_fraction, "resample_ess_fraction")?;
         open_unit(self.recovery_alpha_slow, "recovery_alpha_slow")?;

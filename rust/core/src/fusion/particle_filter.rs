@@ -51,6 +51,35 @@ fn std_normal(rng: &mut Pcg64) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
 
+/// Normalises `weights` to sum 1 (uniform when they are all zero or not finite).
+fn normalize_weights(weights: &mut [f64]) {
+    let sum: f64 = weights.iter().sum();
+    if sum.is_finite() && sum > 0.0 {
+        for w in weights.iter_mut() {
+            *w /= sum;
+        }
+    } else {
+        let u = 1.0 / weights.len().max(1) as f64;
+        weights.iter_mut().for_each(|w| *w = u);
+    }
+}
+
+/// Multiplies by `factor` every weight whose flag is set, then renormalises
+/// when any was; returns how many were.
+fn scale_flagged(weights: &mut [f64], flags: impl Iterator<Item = bool>, factor: f64) -> usize {
+    let mut n = 0;
+    for (w, flag) in weights.iter_mut().zip(flags) {
+        if flag {
+            *w *= factor;
+            n += 1;
+        }
+    }
+    if n > 0 {
+        normalize_weights(weights);
+    }
+    n
+}
+
 /// Largest per-particle heading offset, rad (draws are clamped to it).
 const MAX_HEADING_OFFSET_RAD: f64 = 0.6;
 /// Per-particle step-length scales are clamped to [1 - this, 1 + this].
@@ -308,17 +337,12 @@ impl ParticleFilter {
         factor: f64,
         crossed: impl Fn(Vec2, Vec2) -> bool,
     ) -> usize {
-        let mut n = 0;
-        for ((w, p), b) in self.weights.iter_mut().zip(&self.particles).zip(before) {
-            if crossed(*b, *p) {
-                *w *= factor;
-                n += 1;
-            }
-        }
-        if n > 0 {
-            self.normalize();
-        }
-        n
+        let flags = self
+            .particles
+            .iter()
+            .zip(before)
+            .map(|(p, b)| crossed(*b, *p));
+        scale_flagged(&mut self.weights, flags, factor)
     }
 
     /// [`ParticleFilter::penalize_moves`] with the crossings already known:
@@ -326,17 +350,7 @@ impl ParticleFilter {
     /// `crossed[i]`, then renormalises; same arithmetic. Returns how many
     /// were penalised.
     pub fn penalize_flagged(&mut self, crossed: &[bool], factor: f64) -> usize {
-        let mut n = 0;
-        for (w, &c) in self.weights.iter_mut().zip(crossed) {
-            if c {
-                *w *= factor;
-                n += 1;
-            }
-        }
-        if n > 0 {
-            self.normalize();
-        }
-        n
+        scale_flagged(&mut self.weights, crossed.iter().copied(), factor)
     }
 
     /// Weights of eq. 36 against the BLE position `x_b`, normalised to sum 1.
@@ -352,16 +366,12 @@ impl ParticleFilter {
             .iter()
             .map(|p| (p - x_b).norm_squared())
             .fold(f64::INFINITY, f64::min);
-        if self.accumulates_weights() {
-            // sequential importance sampling: the fix updates the weights
-            // the cloud carries since its last resampling
-            for (w, p) in self.weights.iter_mut().zip(&self.particles) {
-                *w *= (-((p - x_b).norm_squared() - d2min) * inv).exp();
-            }
-        } else {
-            for (w, p) in self.weights.iter_mut().zip(&self.particles) {
-                *w = (-((p - x_b).norm_squared() - d2min) * inv).exp();
-            }
+        // with ESS resampling (sequential importance sampling) the fix
+        // multiplies the weights the cloud carries since its last resampling
+        let carry = self.accumulates_weights();
+        for (w, p) in self.weights.iter_mut().zip(&self.particles) {
+            let l = (-((p - x_b).norm_squared() - d2min) * inv).exp();
+            *w = if carry { *w * l } else { l };
         }
         self.normalize();
     }
@@ -395,15 +405,7 @@ impl ParticleFilter {
 
     /// Normalises the weights to sum 1 (uniform when they are all zero or not finite).
     pub fn normalize(&mut self) {
-        let sum: f64 = self.weights.iter().sum();
-        if sum.is_finite() && sum > 0.0 {
-            for w in &mut self.weights {
-                *w /= sum;
-            }
-        } else {
-            let u = 1.0 / self.weights.len().max(1) as f64;
-            self.weights.iter_mut().for_each(|w| *w = u);
-        }
+        normalize_weights(&mut self.weights);
     }
 
     /// Resamples m particles by the configured scheme; weights become 1/m.

@@ -55,12 +55,7 @@ pub trait PlanQueries {
         if self.obstacle_free_within(from, len) {
             return false;
         }
-        let step = if step_m > 0.0 { step_m } else { 0.05 };
-        let n = (len / step).ceil() as usize;
-        (0..=n).any(|k| {
-            let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
-            self.feature_at(from + d * t) == Feature::Wall
-        })
+        crate::map::crosses_wall_sampled(|p| self.feature_at(p), from, to, step_m)
     }
     /// [`PlanQueries::crosses_wall`] of every move `from[i]` -> `to[i]` into
     /// `out[i]` (`out` resized to the shorter slice's length). The default

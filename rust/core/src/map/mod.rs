@@ -13,6 +13,7 @@ mod raycast;
 mod rooms;
 
 pub use plan::{ClassifiedPlan, classify_png};
+pub use raycast::crosses_wall_sampled;
 pub use rooms::{Room, RoomId};
 
 use crate::Vec2;

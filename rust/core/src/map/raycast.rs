@@ -83,6 +83,26 @@ fn skip_count(free_m: f64, spacing: f64, inv_spacing: f64) -> f64 {
     }
 }
 
+/// The literal particle wall check over any feature function M(x): whether
+/// one of the samples x_k = from + d (k / n), k = 0..=n, d = to - from,
+/// n = ceil(|d| / step_m) (0.05 m when `step_m` is not > 0) is a Wall.
+/// [`FloorMap::crosses_wall`] gives the same answer by skipping samples.
+pub fn crosses_wall_sampled(
+    feature_at: impl Fn(Vec2) -> Feature,
+    from: Vec2,
+    to: Vec2,
+    step_m: f64,
+) -> bool {
+    let d = to - from;
+    let len = d.norm();
+    let step = if step_m > 0.0 { step_m } else { 0.05 };
+    let n = (len / step).ceil() as usize;
+    (0..=n).any(|k| {
+        let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
+        feature_at(from + d * t) == Feature::Wall
+    })
+}
+
 /// Chessboard distance transform (two passes, 8-neighbourhood) of the mask
 /// of the pixels whose feature is `blocked` (obstacles for [`FloorMap::raycast`],
 /// Walls for [`FloorMap::crosses_wall`]), with the outside of the image as
@@ -418,34 +438,29 @@ impl FloorMap {
     /// (every sample evaluated, no early exit): its oracle, and the
     /// particle wall check before the Wall clearance table.
     pub fn crosses_wall_reference(&self, from: Vec2, to: Vec2, step_m: f64) -> bool {
-        let d = to - from;
-        let len = d.norm();
-        let step = if step_m > 0.0 { step_m } else { 0.05 };
-        let n = (len / step).ceil() as usize;
-        (0..=n).any(|k| {
-            let t = if n == 0 { 0.0 } else { k as f64 / n as f64 };
-            self.feature(from + d * t) == Feature::Wall
-        })
+        crosses_wall_sampled(|p| self.feature(p), from, to, step_m)
     }
 
     /// Chessboard clearance (pixels, saturated at 255) of pixel (column,
     /// row) to the nearest Wall pixel or the image border (Doors count as
     /// free); 0 on Walls and outside the image.
     pub fn wall_clearance_px(&self, i: usize, j: usize) -> u8 {
+        self.table_px(&self.wall_clearance, i, j)
+    }
+
+    /// Pixel (column, row) of a row-major clearance table; 0 outside.
+    fn table_px(&self, table: &[u8], i: usize, j: usize) -> u8 {
         if i >= self.width_px || j >= self.height_px {
             return 0;
         }
-        self.wall_clearance[j * self.width_px + i]
+        table[j * self.width_px + i]
     }
 
     /// Chessboard clearance (pixels, saturated at 255) of pixel (column,
     /// row) to the nearest obstacle or the image border; 0 on obstacles and
     /// outside the image.
     pub fn clearance_px(&self, i: usize, j: usize) -> u8 {
-        if i >= self.width_px || j >= self.height_px {
-            return 0;
-        }
-        self.clearance[j * self.width_px + i]
+        self.table_px(&self.clearance, i, j)
     }
 
     /// Whether no obstacle (Wall or Door) lies within `radius_m` of `p`,

@@ -450,6 +450,8 @@ pub(crate) mod test_support {
                 floor: s.floor,
                 heading_rad: 0.0,
                 accuracy_m: 1.0,
+                floor_prob: 1.0,
+                source: fpbp_core::engine::PoseSource::Fused,
             });
         }
         fn task_period_ns(&self, task: Task) -> Option<i64> {
@@ -575,6 +577,8 @@ mod tests {
                 floor: est_floor,
                 heading_rad: 0.0,
                 accuracy_m: 1.0,
+                floor_prob: 1.0,
+                source: fpbp_core::engine::PoseSource::Fused,
             }),
         };
         let pts = [

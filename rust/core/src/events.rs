@@ -100,6 +100,30 @@ pub struct BleObservation {
     pub tx_power_dbm: Option<f64>,
 }
 
+/// One WiFi scan as delivered to the app (Android's `getScanResults()` after
+/// `SCAN_RESULTS_AVAILABLE_ACTION`, ILC `TYPE_WIFI` rows of one arrival time,
+/// IPIN `WIFI` rows of one time).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WifiScan {
+    /// When the scan's results reached the app, ns.
+    pub t_ns: i64,
+    pub results: Vec<WifiResult>,
+}
+
+/// One access point in a [`WifiScan`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WifiResult {
+    /// BSSID, lower-case `aa:bb:cc:dd:ee:ff`.
+    pub bssid: String,
+    pub rssi_dbm: f64,
+    /// Channel centre frequency, MHz (2412..2484: 2.4 GHz, 5160..5885: 5 GHz).
+    pub freq_mhz: u32,
+    /// When this AP was last seen, ns on the same clock (Android's
+    /// `ScanResult.timestamp`, ILC's last-seen field): a result can be
+    /// seconds older than its scan. `seen_t_ns <= t_ns` of its scan.
+    pub seen_t_ns: i64,
+}
+
 /// A GNSS fix in WGS-84.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct GnssFix {
@@ -129,6 +153,7 @@ pub enum LogEvent {
     Sensor(SensorEvent),
     Ble(BleObservation),
     Gnss(GnssFix),
+    Wifi(WifiScan),
     Truth(TruthPoint),
 }
 
@@ -139,6 +164,7 @@ impl LogEvent {
             LogEvent::Sensor(e) => e.t_ns,
             LogEvent::Ble(e) => e.t_ns,
             LogEvent::Gnss(e) => e.t_ns,
+            LogEvent::Wifi(e) => e.t_ns,
             LogEvent::Truth(e) => e.t_ns,
         }
     }

@@ -269,6 +269,8 @@ mod tests {
                 floor: -1,
                 heading_rad: 0.5,
                 accuracy_m: 3.0,
+                floor_prob: 1.0,
+                source: fpbp_core::engine::PoseSource::Fused,
             })
         }
         fn stats(&self) -> EngineStats {

@@ -93,6 +93,7 @@ pub fn is_finite(e: &LogEvent) -> bool {
                 && opt(g.speed_mps)
                 && opt(g.bearing_deg)
         }
+        LogEvent::Wifi(w) => w.results.iter().all(|r| r.rssi_dbm.is_finite()),
         LogEvent::Truth(t) => t.x_m.is_finite() && t.y_m.is_finite(),
     }
 }

@@ -127,6 +127,9 @@ impl<W: Write> NativeWriter<W> {
                 opt(g.speed_mps),
                 opt(g.bearing_deg)
             ),
+            LogEvent::Wifi(_) => {
+                return Err(invalid("native log v1 has no WiFi lines".to_string()));
+            }
             LogEvent::Truth(t) => write!(
                 l,
                 "{} TRUTH {} {} {}",

@@ -16,6 +16,9 @@ pub struct KindCounts {
     pub prs: u64,
     pub ble: u64,
     pub gnss: u64,
+    /// WiFi scans (not results).
+    #[serde(default)]
+    pub wifi: u64,
     pub truth: u64,
 }
 
@@ -33,6 +36,7 @@ impl KindCounts {
             },
             LogEvent::Ble(_) => self.ble += 1,
             LogEvent::Gnss(_) => self.gnss += 1,
+            LogEvent::Wifi(_) => self.wifi += 1,
             LogEvent::Truth(_) => self.truth += 1,
         }
     }
@@ -47,6 +51,7 @@ impl KindCounts {
             + self.prs
             + self.ble
             + self.gnss
+            + self.wifi
             + self.truth
     }
 }

@@ -105,7 +105,8 @@ fn kind_rank(e: &LogEvent) -> u8 {
         },
         LogEvent::Ble(_) => 6,
         LogEvent::Gnss(_) => 7,
-        LogEvent::Truth(_) => 8,
+        LogEvent::Wifi(_) => 8,
+        LogEvent::Truth(_) => 9,
     }
 }
 

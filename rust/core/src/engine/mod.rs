@@ -13,7 +13,7 @@ pub mod replay;
 
 use serde::{Deserialize, Serialize};
 
-use crate::events::{BleObservation, GnssFix, SensorEvent};
+use crate::events::{BleObservation, GnssFix, SensorEvent, WifiScan};
 
 pub use config::{EngineConfig, TaskConfig};
 pub use factory::{ENGINE_NAMES, EngineData, build_engine, build_engine_with};
@@ -52,6 +52,35 @@ pub struct Pose {
     pub heading_rad: f64,
     /// Radius within which the engine believes the user is (about 68 %), metres.
     pub accuracy_m: f64,
+    /// Probability that `floor` is right, in [0, 1] (1 on a one-floor site
+    /// or for an engine without a floor model).
+    pub floor_prob: f64,
+    /// What the pose rests on.
+    pub source: PoseSource,
+}
+
+/// What a [`Pose`] rests on.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PoseSource {
+    /// Radio only (BLE/WiFi positioning without motion).
+    Radio,
+    /// Motion sensors from a start, no radio correction yet / lately.
+    DeadReckoning,
+    /// Radio and motion (and the map) fused.
+    #[default]
+    Fused,
+}
+
+impl PoseSource {
+    /// Stable integer code (JNI, CSV): 0 radio, 1 dead reckoning, 2 fused.
+    pub fn code(self) -> i32 {
+        match self {
+            PoseSource::Radio => 0,
+            PoseSource::DeadReckoning => 1,
+            PoseSource::Fused => 2,
+        }
+    }
 }
 
 /// A start position handed to an engine (a tap on the map, a QR code, or the
@@ -90,6 +119,17 @@ pub trait Engine: Send {
     fn on_sensor(&mut self, event: &SensorEvent);
     fn on_ble(&mut self, obs: &BleObservation);
     fn on_gnss(&mut self, _fix: &GnssFix) {}
+    /// One WiFi scan. Engines that do not use WiFi ignore it (the default).
+    fn on_wifi(&mut self, _scan: &WifiScan) {}
+    /// Moves the engine to a known position now (a tap on the map, a QR
+    /// code) without a restart. The default refuses: engines that support it
+    /// override it.
+    fn set_position(&mut self, _t_ns: i64, _at: InitialPosition) -> crate::Result<()> {
+        Err(crate::Error::Input(format!(
+            "engine `{}` does not support set_position",
+            self.name()
+        )))
+    }
     /// Runs one periodic task at `t_ns`.
     fn run_task(&mut self, task: Task, t_ns: i64);
     /// Nominal period of `task` in ns, or `None` when the engine has no such task.

@@ -111,6 +111,7 @@ impl<'a> Replayer<'a> {
             LogEvent::Sensor(e) => self.engine.on_sensor(e),
             LogEvent::Ble(b) => self.engine.on_ble(b),
             LogEvent::Gnss(g) => self.engine.on_gnss(g),
+            LogEvent::Wifi(w) => self.engine.on_wifi(w),
             LogEvent::Truth(tp) => self.out.scored.push(ScoredPoint {
                 truth: *tp,
                 estimate: self.engine.pose(),

@@ -83,6 +83,8 @@ impl Engine for BleOnlyEngine {
                     heading_rad,
                     // crude: a floor of 2 m plus the mean filter's last correction
                     accuracy_m: 2.0 + (fix.raw - fix.pos).norm(),
+                    floor_prob: 1.0,
+                    source: crate::engine::PoseSource::Radio,
                 });
             }
             None => self.stats.no_fix += 1,

@@ -228,6 +228,8 @@ impl FusionSide {
             floor: self.floor,
             heading_rad: self.heading_rad,
             accuracy_m: self.pf.spread_m().max(0.5),
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Fused,
         });
     }
 
@@ -596,6 +598,8 @@ impl Engine for FpbpEngine {
             floor: f.floor,
             heading_rad: 0.0,
             accuracy_m: 0.0,
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Radio,
         })
     }
 

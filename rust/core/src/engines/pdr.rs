@@ -117,6 +117,8 @@ impl Engine for PdrEngine {
             floor: self.floor,
             heading_rad: self.heading_rad,
             accuracy_m: self.start_accuracy_m + self.accuracy_per_walked_m * self.walked_m,
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::DeadReckoning,
         })
     }
 

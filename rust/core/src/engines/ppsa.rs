@@ -314,6 +314,8 @@ impl PpsaEngine {
             floor,
             heading_rad: self.heading_rad,
             accuracy_m: self.nlos.config().sigma_los_dbm.max(1.0),
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Fused,
         });
     }
 

@@ -482,6 +482,8 @@ impl ProxPfEngine {
                     floor,
                     heading_rad: self.heading_rad,
                     accuracy_m: var.sqrt(),
+                    floor_prob: 1.0,
+                    source: crate::engine::PoseSource::Fused,
                 });
             }
             None => self.stats.no_fix += 1,

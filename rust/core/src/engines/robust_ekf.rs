@@ -226,6 +226,8 @@ impl RobustEkfEngine {
             floor: self.floor,
             heading_rad: self.x[3],
             accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Fused,
         });
     }
 }
@@ -262,6 +264,8 @@ impl Engine for RobustEkfEngine {
                     floor,
                     heading_rad: self.x[3],
                     accuracy_m: self.cfg.fingerprint_sigma_m,
+                    floor_prob: 1.0,
+                    source: crate::engine::PoseSource::Radio,
                 });
                 if !self.initialised
                     || floor != self.floor

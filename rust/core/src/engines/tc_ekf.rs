@@ -262,6 +262,8 @@ impl TcEkfEngine {
             floor: self.floor,
             heading_rad,
             accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Fused,
         });
     }
 }

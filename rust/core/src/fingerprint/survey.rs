@@ -125,7 +125,7 @@ impl<'a> SurveyBuilder<'a> {
                         truth.push((tp.t_ns, Vec2::new(tp.x_m, tp.y_m), tp.floor));
                     }
                 }
-                LogEvent::Gnss(_) => {}
+                LogEvent::Gnss(_) | LogEvent::Wifi(_) => {}
             }
             steps.extend(pdr.take_steps());
         }

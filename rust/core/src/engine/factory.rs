@@ -2,6 +2,8 @@
 
 use std::sync::Arc;
 
+#[cfg(test)]
+use super::EngineStats;
 use super::{Engine, EngineConfig, InitialPosition};
 use crate::{Error, Result, site::Site};
 
@@ -88,5 +90,70 @@ pub fn build_engine_with(
             name.to_string(),
             ENGINE_NAMES.join(", "),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::engine::replay::replay;
+    use crate::engines::prox_pf::testkit::{site, walk_north};
+    use crate::events::{LogEvent, WifiResult, WifiScan};
+
+    fn scan(t_ns: i64, n: usize) -> LogEvent {
+        LogEvent::Wifi(WifiScan {
+            t_ns,
+            results: (0..n)
+                .map(|k| WifiResult {
+                    bssid: format!("02:00:00:00:00:{k:02x}"),
+                    rssi_dbm: -60.0 - k as f64,
+                    freq_mhz: 2412,
+                    seen_t_ns: t_ns - 1_000_000,
+                })
+                .collect(),
+        })
+    }
+
+    /// Engines that do not use WiFi count its scans and results and
+    /// otherwise behave exactly as without them.
+    #[test]
+    fn every_engine_counts_and_ignores_wifi_scans() {
+        let plain = walk_north(12, None);
+        let mut with_wifi = Vec::new();
+        for (i, e) in plain.iter().enumerate() {
+            with_wifi.push(e.clone());
+            // after the first event, so the task clocks start alike
+            if i == 5 {
+                with_wifi.push(scan(e.t_ns(), 3));
+            }
+            if i == plain.len() / 2 {
+                with_wifi.push(scan(e.t_ns(), 0));
+            }
+        }
+        let init = Some(InitialPosition {
+            x_m: 7.0,
+            y_m: 4.0,
+            floor: 0,
+            heading_rad: None,
+        });
+        for name in ENGINE_NAMES {
+            let cfg = EngineConfig::default();
+            let run = |events: &[LogEvent]| {
+                let mut e = build_engine(name, site(), &cfg, init).unwrap();
+                replay(e.as_mut(), events.iter().cloned())
+            };
+            let a = run(&plain);
+            let b = run(&with_wifi);
+            assert_eq!((b.stats.wifi_scans, b.stats.wifi_results), (2, 3), "{name}");
+            assert_eq!((a.stats.wifi_scans, a.stats.wifi_results), (0, 0), "{name}");
+            let strip = |s: &EngineStats| EngineStats {
+                wifi_scans: 0,
+                wifi_results: 0,
+                ..s.clone()
+            };
+            assert_eq!(strip(&a.stats), strip(&b.stats), "{name}");
+            assert_eq!(a.track, b.track, "{name}");
+            assert!(!a.track.is_empty(), "{name}: no pose at all");
+        }
     }
 }

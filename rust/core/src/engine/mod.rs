@@ -106,6 +106,21 @@ pub struct EngineStats {
     pub steps: u64,
     /// Task runs that could not produce a position.
     pub no_fix: u64,
+    /// WiFi scans received (used or ignored: an engine without WiFi counts
+    /// them and drops them, never an error).
+    #[serde(default)]
+    pub wifi_scans: u64,
+    /// Access-point results in those scans.
+    #[serde(default)]
+    pub wifi_results: u64,
+}
+
+impl EngineStats {
+    /// Counts one WiFi scan and its results.
+    pub fn count_wifi(&mut self, scan: &WifiScan) {
+        self.wifi_scans += 1;
+        self.wifi_results += scan.results.len() as u64;
+    }
 }
 
 /// A positioning algorithm behind the common interface.

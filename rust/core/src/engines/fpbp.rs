@@ -566,6 +566,11 @@ impl Engine for FpbpEngine {
         }
     }
 
+    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
+        // This engine does not use WiFi: counted and ignored.
+        self.stats.count_wifi(scan);
+    }
+
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
             Task::Ble => {

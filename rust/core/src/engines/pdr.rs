@@ -87,6 +87,11 @@ impl Engine for PdrEngine {
         self.stats.ble_observations += 1;
     }
 
+    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
+        // This engine does not use WiFi: counted and ignored.
+        self.stats.count_wifi(scan);
+    }
+
     fn run_task(&mut self, task: Task, t_ns: i64) {
         if task != Task::Fusion {
             return;

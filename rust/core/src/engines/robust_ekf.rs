@@ -250,6 +250,11 @@ impl Engine for RobustEkfEngine {
         self.front.on_observation(obs);
     }
 
+    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
+        // This engine does not use WiFi: counted and ignored.
+        self.stats.count_wifi(scan);
+    }
+
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
             T::Ble => {

@@ -286,6 +286,11 @@ impl Engine for TcEkfEngine {
         self.front.on_observation(obs);
     }
 
+    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
+        // This engine does not use WiFi: counted and ignored.
+        self.stats.count_wifi(scan);
+    }
+
     fn on_gnss(&mut self, fix: &GnssFix) {
         let Some(georef) = self.site.spec.georef.as_ref() else {
             return;

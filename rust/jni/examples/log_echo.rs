@@ -1,5 +1,6 @@
 //! Reads a log with fpbp-logs (strict: the first malformed line is an error)
-//! and writes its events back as a native v1 log. The JVM host tests use it to
+//! and writes its events back as a native log of the input's version (v1 in,
+//! v1 out, so a reader that knows only v1 reads it back; v2 otherwise). The JVM host tests use it to
 //! check that logs written by the Kotlin recorder (`io.fpbp.NativeLogWriter`)
 //! parse with the Rust reader to the very same values.
 //!
@@ -16,12 +17,18 @@ fn run() -> Result<usize, String> {
         strict: true,
         ..Default::default()
     };
-    let (events, _) =
-        fpbp_logs::read_all(std::path::Path::new(input), &opts).map_err(|e| e.to_string())?;
+    let mut r =
+        fpbp_logs::open_log(std::path::Path::new(input), &opts).map_err(|e| e.to_string())?;
+    let mut events = Vec::new();
+    while let Some(e) = r.try_next().map_err(|e| e.to_string())? {
+        events.push(e);
+    }
+    let version = r.native_version().unwrap_or(fpbp_logs::native::VERSION);
     let file = std::fs::File::create(output).map_err(|e| format!("{output}: {e}"))?;
-    let mut w = fpbp_logs::native::NativeWriter::new(
+    let mut w = fpbp_logs::native::NativeWriter::with_version(
         std::io::BufWriter::new(file),
         &fpbp_logs::native::NativeHeader::new(),
+        version,
     )
     .map_err(|e| format!("{output}: {e}"))?;
     for e in &events {

@@ -15,11 +15,13 @@ pub enum LogError {
     },
     /// The first lines match none of the known formats.
     #[error(
-        "{file}: unknown log format (expected a native `#fpbp-log 1` header, an ILC trace or an IPIN GetSensorData logfile)"
+        "{file}: unknown log format (expected a native `#fpbp-log 1|2` header, an ILC trace or an IPIN GetSensorData logfile)"
     )]
     UnknownFormat { file: String },
     /// A native log declares a version this reader does not know.
-    #[error("{file}:{line}: native log version `{version}` is not supported (this reader knows 1)")]
+    #[error(
+        "{file}:{line}: native log version `{version}` is not supported (this reader knows 1 and 2)"
+    )]
     UnsupportedVersion {
         file: String,
         line: u64,

@@ -6,10 +6,13 @@
 //! Waypoints are metres in the floor image frame (bottom-left origin, y up),
 //! which is the MCS of a site built from that image, so they pass through.
 
-use fpbp_core::events::{BleObservation, LogEvent, SensorData, SensorEvent, TruthPoint};
+use fpbp_core::events::{
+    BleObservation, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult,
+};
 
 use crate::line::{
-    LineOutcome, f64_field, i64_field, ibeacon_id, mac_id, str_field, valid_tx_power,
+    LineOutcome, bssid, f64_field, freq_mhz_field, i64_field, ibeacon_id, mac_id, str_field,
+    valid_tx_power,
 };
 
 /// Line parser of ILC traces.
@@ -39,6 +42,12 @@ impl IlcParser {
     /// Parses one line (without its line break).
     pub fn parse_line(&mut self, line: &str) -> LineOutcome {
         let line = line.trim_end_matches(['\r', '\n']);
+        if line.split('\t').nth(1) == Some("TYPE_WIFI") {
+            return match self.parse_wifi(line) {
+                Ok(o) => o,
+                Err(m) => LineOutcome::MalformedWifi(m),
+            };
+        }
         if line.trim().is_empty() {
             return LineOutcome::Header;
         }
@@ -64,6 +73,51 @@ impl IlcParser {
         }
     }
 
+    /// `(t_ms - origin_ms) * 1e6`, the origin set by the first row when the
+    /// header gave none.
+    fn to_ns(&mut self, t_ms: i64) -> Result<i64, String> {
+        let origin = *self.origin_ms.get_or_insert(t_ms);
+        t_ms.checked_sub(origin)
+            .and_then(|d| d.checked_mul(1_000_000))
+            .ok_or_else(|| format!("time {t_ms} ms is out of range"))
+    }
+
+    /// `t_ms TYPE_WIFI SSID BSSID RSSI frequency last_seen_ms`. The SSID may
+    /// be empty (or, in principle, hold a tab), so the other four are taken
+    /// from the end. `seen_t_ns` is on the same clock as `t_ns`; a last-seen
+    /// time after the row's own time is malformed.
+    fn parse_wifi(&mut self, line: &str) -> Result<LineOutcome, String> {
+        let f: Vec<&str> = line.split('\t').collect();
+        let t_ms = i64_field(&f, 0, "t_ms")?;
+        if f.len() < 7 {
+            return Err(format!(
+                "TYPE_WIFI needs 5 fields after the type (ssid, bssid, rssi, frequency, last-seen ms), got {}",
+                f.len() - 2
+            ));
+        }
+        let n = f.len();
+        let bssid = bssid(f[n - 4].trim()).map_err(|m| format!("field {} (bssid): {m}", n - 3))?;
+        let rssi_dbm = f64_field(&f, n - 3, "rssi_dbm")?;
+        let freq_mhz = freq_mhz_field(&f, n - 2)?;
+        let seen_ms = i64_field(&f, n - 1, "last_seen_ms")?;
+        if seen_ms > t_ms {
+            return Err(format!(
+                "field {n} (last_seen_ms): {seen_ms} is after the row's time {t_ms}"
+            ));
+        }
+        let t_ns = self.to_ns(t_ms)?;
+        let seen_t_ns = self.to_ns(seen_ms)?;
+        Ok(LineOutcome::WifiRow {
+            t_ns,
+            result: WifiResult {
+                bssid,
+                rssi_dbm,
+                freq_mhz,
+                seen_t_ns,
+            },
+        })
+    }
+
     fn parse_row(&mut self, line: &str) -> Result<LineOutcome, String> {
         let f: Vec<&str> = line.split('\t').collect();
         let t_ms = i64_field(&f, 0, "t_ms")?;
@@ -71,11 +125,7 @@ impl IlcParser {
         if !kind.starts_with("TYPE_") {
             return Err(format!("field 2: `{kind}` is not a TYPE_ record"));
         }
-        let origin = *self.origin_ms.get_or_insert(t_ms);
-        let t_ns = t_ms
-            .checked_sub(origin)
-            .and_then(|d| d.checked_mul(1_000_000))
-            .ok_or_else(|| format!("time {t_ms} ms is out of range"))?;
+        let t_ns = self.to_ns(t_ms)?;
         let need = |n: usize| -> Result<(), String> {
             if f.len() >= n {
                 Ok(())
@@ -293,10 +343,6 @@ mod tests {
     fn unused_and_malformed_rows() {
         let mut p = IlcParser::new(None);
         assert_eq!(
-            p.parse_line("10\tTYPE_WIFI\tssid\t00:11:22:33:44:55\t-50\t2412\t9"),
-            LineOutcome::Ignored
-        );
-        assert_eq!(
             p.parse_line("10\tTYPE_GYROSCOPE_UNCALIBRATED\t1\t2\t3\t4\t5\t6\t3"),
             LineOutcome::Ignored
         );
@@ -320,6 +366,59 @@ mod tests {
             p.parse_line("10\tTYPE_BEACON\tu\t70000000000\t1\t-59\t-80"),
             LineOutcome::Malformed(_)
         ));
+    }
+
+    #[test]
+    fn wifi_rows_keep_their_own_last_seen_time() {
+        let mut p = IlcParser::new(None);
+        assert_eq!(p.parse_line("#\tstartTime:1000000"), LineOutcome::Header);
+        // an SSID with a space, an upper-case BSSID, a result 2.5 s old
+        assert_eq!(
+            p.parse_line("1003000\tTYPE_WIFI\tmy net\tA8:0C:CA:03:9D:D7\t-49\t5785\t1000500"),
+            LineOutcome::WifiRow {
+                t_ns: 3_000_000_000,
+                result: WifiResult {
+                    bssid: "a8:0c:ca:03:9d:d7".into(),
+                    rssi_dbm: -49.0,
+                    freq_mhz: 5785,
+                    seen_t_ns: 500_000_000,
+                }
+            }
+        );
+        // empty SSID; last seen before the trace started
+        match p.parse_line("1003000\tTYPE_WIFI\t\t04:33:89:79:fc:7c\t-70\t2412\t990000") {
+            LineOutcome::WifiRow { result, .. } => {
+                assert_eq!(result.seen_t_ns, -10_000_000_000)
+            }
+            o => panic!("{o:?}"),
+        }
+        for (bad, what) in [
+            (
+                "1003000\tTYPE_WIFI\tx\tnot-a-bssid\t-70\t2412\t1000000",
+                "bssid",
+            ),
+            (
+                "1003000\tTYPE_WIFI\tx\t04:33:89:79:fc:7c\tloud\t2412\t1000000",
+                "rssi_dbm",
+            ),
+            (
+                "1003000\tTYPE_WIFI\tx\t04:33:89:79:fc:7c\t-70\t0\t1000000",
+                "frequency_mhz",
+            ),
+            (
+                "1003000\tTYPE_WIFI\tx\t04:33:89:79:fc:7c\t-70\t2412\t1004000",
+                "after the row",
+            ),
+            (
+                "1003000\tTYPE_WIFI\t04:33:89:79:fc:7c\t-70\t2412",
+                "needs 5 fields",
+            ),
+        ] {
+            match p.parse_line(bad) {
+                LineOutcome::MalformedWifi(m) => assert!(m.contains(what), "{bad}: {m}"),
+                o => panic!("{bad}: {o:?}"),
+            }
+        }
     }
 
     #[test]

@@ -14,12 +14,15 @@
 //! `getOrientation` with pitch and azimuth negated (yaw counter-clockwise
 //! from north). Checked on every training log (see the dataset tests).
 
-use fpbp_core::events::{BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint};
+use fpbp_core::events::{
+    BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult,
+};
 use fpbp_core::geo::mcs_from_wgs84;
 use fpbp_core::site::GeoRef;
 
 use crate::line::{
-    LineOutcome, f64_field, i64_field, ibeacon_id, mac_id, seconds_to_ns, str_field,
+    LineOutcome, bssid, f64_field, freq_mhz_field, i64_field, ibeacon_id, mac_id, seconds_to_ns,
+    str_field,
 };
 
 /// Line parser of IPIN GetSensorData logfiles.
@@ -44,6 +47,12 @@ impl IpinParser {
         let line = line.trim_end_matches(['\r', '\n']);
         if line.trim().is_empty() || line.starts_with('%') {
             return LineOutcome::Header;
+        }
+        if line.starts_with("WIFI;") {
+            return match parse_wifi(line) {
+                Ok(o) => o,
+                Err(m) => LineOutcome::MalformedWifi(m),
+            };
         }
         match self.parse_row(line) {
             Ok(o) => o,
@@ -177,6 +186,39 @@ impl IpinParser {
     }
 }
 
+/// `WIFI;AppTs;SensorTs;SSID;BSSID;frequency;RSS`, grouped into scans by
+/// AppTs. The SSID may in principle hold a `;`, so the last three fields are
+/// taken from the end (a trailing `;` is allowed). GetSensorData gives no
+/// per-result age: its SensorTs is the row's write time on the sensor clock
+/// (SensorTs - AppTs is the same within 1 ms for every WIFI row of a log),
+/// not Android's `ScanResult.timestamp`, so `seen_t_ns` = the scan's `t_ns`.
+fn parse_wifi(line: &str) -> Result<LineOutcome, String> {
+    let mut f: Vec<&str> = line.split(';').collect();
+    if f.len() > 7 && f.last().is_some_and(|l| l.trim().is_empty()) {
+        f.pop();
+    }
+    if f.len() < 7 {
+        return Err(format!(
+            "WIFI needs 7 fields (WIFI, AppTs, SensorTs, SSID, BSSID, frequency, RSS), got {}",
+            f.len()
+        ));
+    }
+    let t_ns = seconds_to_ns(f64_field(&f, 1, "AppTimestamp")?)?;
+    let n = f.len();
+    let bssid = bssid(f[n - 3].trim()).map_err(|m| format!("field {} (bssid): {m}", n - 2))?;
+    let freq_mhz = freq_mhz_field(&f, n - 2)?;
+    let rssi_dbm = f64_field(&f, n - 1, "rss_dbm")?;
+    Ok(LineOutcome::WifiRow {
+        t_ns,
+        result: WifiResult {
+            bssid,
+            rssi_dbm,
+            freq_mhz,
+            seen_t_ns: t_ns,
+        },
+    })
+}
+
 fn u16_field(f: &[&str], i: usize, name: &str) -> Result<u16, String> {
     let v = i64_field(f, i, name)?;
     u16::try_from(v).map_err(|_| format!("field {} ({name}): {v} is out of range", i + 1))
@@ -256,9 +298,32 @@ mod tests {
             })
         );
         assert_eq!(
-            p.parse_line("WIFI;0.651;65094.18;SSID;20:23:00:00:00:01;2437;-60"),
-            LineOutcome::Ignored
+            p.parse_line("WIFI;0.651;65094.18;SSID;20:23:00:00:00:0A;2437;-60"),
+            LineOutcome::WifiRow {
+                t_ns: 651_000_000,
+                result: WifiResult {
+                    bssid: "20:23:00:00:00:0a".into(),
+                    rssi_dbm: -60.0,
+                    freq_mhz: 2437,
+                    seen_t_ns: 651_000_000,
+                }
+            }
         );
+        assert!(matches!(
+            p.parse_line("WIFI;0.7;65094.18;a;b;c;20:23:00:00:00:01;5200;-70;"),
+            LineOutcome::WifiRow { .. }
+        ));
+        for bad in [
+            "WIFI;0.7;65094.18;SSID;20:23:00:00:00;2437;-60",
+            "WIFI;0.7;65094.18;SSID;20:23:00:00:00:01;2437",
+            "WIFI;0.7;65094.18;SSID;20:23:00:00:00:01;-5;-60",
+            "WIFI;soon;65094.18;SSID;20:23:00:00:00:01;2437;-60",
+        ] {
+            assert!(
+                matches!(p.parse_line(bad), LineOutcome::MalformedWifi(_)),
+                "{bad}"
+            );
+        }
         assert!(matches!(
             p.parse_line("ACCE;x;1;2;3;4;3"),
             LineOutcome::Malformed(_)

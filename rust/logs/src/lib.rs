@@ -25,6 +25,7 @@ pub mod native;
 pub mod options;
 pub mod reorder;
 pub mod report;
+pub mod wifi_group;
 
 use std::collections::VecDeque;
 use std::io::{BufRead, BufReader, Read};
@@ -118,6 +119,7 @@ pub struct LogReader {
     strict: bool,
     gap_threshold_ns: i64,
     reorder: ReorderBuffer,
+    wifi: wifi_group::WifiGrouper,
     pending: VecDeque<String>,
     line_no: u64,
     eof: bool,
@@ -183,6 +185,7 @@ impl LogReader {
             strict: opts.strict,
             gap_threshold_ns,
             reorder: ReorderBuffer::new(window_ns),
+            wifi: wifi_group::WifiGrouper::default(),
             pending,
             line_no: 0,
             eof: false,
@@ -206,6 +209,14 @@ impl LogReader {
     pub fn native_header(&self) -> Option<&NativeHeader> {
         match &self.parser {
             Parser::Native(p) => Some(&p.header),
+            _ => None,
+        }
+    }
+
+    /// Native logs: the version of the header line (1 or 2), once read.
+    pub fn native_version(&self) -> Option<u32> {
+        match &self.parser {
+            Parser::Native(p) => p.version,
             _ => None,
         }
     }
@@ -285,6 +296,9 @@ impl LogReader {
             }
             let Some(line) = self.next_line()? else {
                 self.eof = true;
+                if let Some(scan) = self.wifi.take() {
+                    self.accept(LogEvent::Wifi(scan));
+                }
                 continue;
             };
             self.line_no += 1;
@@ -292,7 +306,7 @@ impl LogReader {
             if self.line_no == 1
                 && self.format == LogFormat::Native
                 && let Some(v) = native::parse_magic(line.trim_start_matches('\u{feff}'))
-                && v != native::VERSION.to_string()
+                && !native::READ_VERSIONS.iter().any(|k| v == k.to_string())
             {
                 return Err(LogError::UnsupportedVersion {
                     file: self.file.clone(),
@@ -313,35 +327,67 @@ impl LogReader {
                     }
                     self.report.truth_without_georef += 1;
                 }
-                LineOutcome::Malformed(msg) => {
-                    let err = LogError::Malformed {
-                        file: self.file.clone(),
-                        line: self.line_no,
-                        msg,
-                    };
-                    if self.strict {
-                        return Err(err);
-                    }
-                    self.report.malformed_skipped += 1;
-                    if self.report.first_malformed.is_none() {
-                        self.report.first_malformed = Some(err.to_string());
-                    }
-                }
-                LineOutcome::Event(e) => {
-                    if !line::is_finite(&e) {
+                LineOutcome::Malformed(msg) => self.malformed(msg, false)?,
+                LineOutcome::MalformedWifi(msg) => self.malformed(msg, true)?,
+                LineOutcome::WifiRow { t_ns, result } => {
+                    self.report.wifi_rows += 1;
+                    if !result.rssi_dbm.is_finite() {
                         self.report.non_finite_dropped += 1;
                         continue;
                     }
-                    match self.reorder.push(e) {
-                        Pushed::InOrder => {}
-                        Pushed::Backwards => self.report.backwards_timestamps += 1,
-                        Pushed::Duplicate => self.report.duplicates_dropped += 1,
-                        Pushed::TooLate => {
-                            self.report.backwards_timestamps += 1;
-                            self.report.late_dropped += 1;
-                        }
+                    match self.wifi.push(t_ns, result) {
+                        Ok(Some(scan)) => self.accept(LogEvent::Wifi(scan)),
+                        Ok(None) => {}
+                        Err(msg) => self.malformed(msg, true)?,
                     }
                 }
+                LineOutcome::Event(e) => {
+                    // a WiFi scan ends at the first other event
+                    if let Some(scan) = self.wifi.take() {
+                        self.accept(LogEvent::Wifi(scan));
+                    }
+                    self.accept(e);
+                }
+            }
+        }
+    }
+
+    /// Counts (lenient) or returns (strict) a malformed line.
+    fn malformed(&mut self, msg: String, wifi: bool) -> Result<(), LogError> {
+        let err = LogError::Malformed {
+            file: self.file.clone(),
+            line: self.line_no,
+            msg,
+        };
+        if self.strict {
+            return Err(err);
+        }
+        self.report.malformed_skipped += 1;
+        if self.report.first_malformed.is_none() {
+            self.report.first_malformed = Some(err.to_string());
+        }
+        if wifi {
+            self.report.malformed_wifi_rows += 1;
+            if self.report.first_malformed_wifi.is_none() {
+                self.report.first_malformed_wifi = Some(err.to_string());
+            }
+        }
+        Ok(())
+    }
+
+    /// Hands a parsed event to the reorder buffer (dropping non-finite ones).
+    fn accept(&mut self, e: LogEvent) {
+        if !line::is_finite(&e) {
+            self.report.non_finite_dropped += 1;
+            return;
+        }
+        match self.reorder.push(e) {
+            Pushed::InOrder => {}
+            Pushed::Backwards => self.report.backwards_timestamps += 1,
+            Pushed::Duplicate => self.report.duplicates_dropped += 1,
+            Pushed::TooLate => {
+                self.report.backwards_timestamps += 1;
+                self.report.late_dropped += 1;
             }
         }
     }

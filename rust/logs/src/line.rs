@@ -1,6 +1,6 @@
 //! What a format parser makes of one line, and small field helpers.
 
-use fpbp_core::events::LogEvent;
+use fpbp_core::events::{LogEvent, WifiResult};
 
 /// The result of parsing one line.
 #[derive(Debug, Clone, PartialEq)]
@@ -15,6 +15,13 @@ pub enum LineOutcome {
     TruthWithoutGeoref,
     /// A malformed line; the message says what is wrong.
     Malformed(String),
+    /// One access point of a WiFi scan (ILC `TYPE_WIFI`, IPIN `WIFI`: one
+    /// row per result). The reader groups consecutive rows of one `t_ns`
+    /// into one [`fpbp_core::events::WifiScan`].
+    WifiRow { t_ns: i64, result: WifiResult },
+    /// A malformed WiFi row (counted as malformed and, separately, as a
+    /// malformed WiFi row).
+    MalformedWifi(String),
 }
 
 /// Parses field `i` of `fields` as f64, naming it in the error.
@@ -60,18 +67,45 @@ pub fn ibeacon_id(uuid: &str, major: u32, minor: u32) -> String {
     format!("ibeacon:{}:{major}:{minor}", uuid.to_ascii_uppercase())
 }
 
-/// `mac:AA:BB:CC:DD:EE:FF` in upper case; checks the shape.
-pub fn mac_id(mac: &str) -> Result<String, String> {
-    let ok = mac.len() == 17
+/// Whether `mac` has the shape `aa:bb:cc:dd:ee:ff` (hex digits, any case).
+fn is_mac(mac: &str) -> bool {
+    mac.len() == 17
         && mac.split(':').count() == 6
         && mac
             .split(':')
-            .all(|b| b.len() == 2 && b.chars().all(|c| c.is_ascii_hexdigit()));
-    if ok {
+            .all(|b| b.len() == 2 && b.chars().all(|c| c.is_ascii_hexdigit()))
+}
+
+/// `mac:AA:BB:CC:DD:EE:FF` in upper case; checks the shape.
+pub fn mac_id(mac: &str) -> Result<String, String> {
+    if is_mac(mac) {
         Ok(format!("mac:{}", mac.to_ascii_uppercase()))
     } else {
         Err(format!("`{mac}` is not a MAC address"))
     }
+}
+
+/// A WiFi BSSID normalised to lower case `aa:bb:cc:dd:ee:ff`; checks the shape.
+pub fn bssid(mac: &str) -> Result<String, String> {
+    if is_mac(mac) {
+        Ok(mac.to_ascii_lowercase())
+    } else {
+        Err(format!("`{mac}` is not a BSSID (aa:bb:cc:dd:ee:ff)"))
+    }
+}
+
+/// Parses field `i` as a WiFi channel frequency in MHz (1..=100000).
+pub fn freq_mhz_field(fields: &[&str], i: usize) -> Result<u32, String> {
+    let v = i64_field(fields, i, "frequency_mhz")?;
+    u32::try_from(v)
+        .ok()
+        .filter(|f| (1..=100_000).contains(f))
+        .ok_or_else(|| {
+            format!(
+                "field {} (frequency_mhz): {v} is not in 1..=100000 MHz",
+                i + 1
+            )
+        })
 }
 
 /// Whether every number in the event is finite.

@@ -1,26 +1,34 @@
-//! fpbp native log v1: text, one event per line, `t_ns` first (docs/formats.md
-//! "Native log v1").
+//! fpbp native log v2 (and v1): text, one event per line, `t_ns` first
+//! (docs/logs.md "Native log"). v2 adds `WIFI` lines (one scan per line);
+//! v1 files are still read, and can still be written for readers that know
+//! only v1 ([`NativeWriter::with_version`]).
 //!
 //! ```text
-//! #fpbp-log 1
+//! #fpbp-log 2
 //! #meta device=Pixel 7
 //! #meta seed=42
 //! 1000000 ACC 0.1 0.2 9.81
 //! 1000000 BLE ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:2 -71 -59
+//! 1500000 WIFI 2 a8:0c:ca:03:9d:d7 -49 2422 1400000 a8:0c:ca:83:9d:d7 -59 5785 1500000
 //! 2000000 TRUTH 12.5 3.25 0
 //! ```
 
 use std::collections::BTreeMap;
 use std::io::Write;
 
-use fpbp_core::events::{BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint};
+use fpbp_core::events::{
+    BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult, WifiScan,
+};
 
-use crate::line::{LineOutcome, f64_field, i64_field, str_field};
+use crate::line::{LineOutcome, bssid, f64_field, i64_field, str_field};
+use crate::wifi_group::MAX_RESULTS_PER_SCAN;
 
 /// First line of every native log (followed by a space and the version).
 pub const MAGIC: &str = "#fpbp-log";
-/// The version this module reads and writes.
-pub const VERSION: u32 = 1;
+/// The version [`NativeWriter::new`] writes.
+pub const VERSION: u32 = 2;
+/// The versions this module reads (and [`NativeWriter::with_version`] writes).
+pub const READ_VERSIONS: [u32; 2] = [1, 2];
 
 /// The header of a native log: version and free `key=value` metadata
 /// (device, site, seed, ...). Keys have no whitespace and no `=`; values are
@@ -43,10 +51,11 @@ impl NativeHeader {
     }
 }
 
-/// Writes a native v1 log.
+/// Writes a native log (v2 unless asked for v1).
 pub struct NativeWriter<W: Write> {
     w: W,
     line: String,
+    version: u32,
 }
 
 fn invalid(msg: String) -> std::io::Error {
@@ -54,10 +63,21 @@ fn invalid(msg: String) -> std::io::Error {
 }
 
 impl<W: Write> NativeWriter<W> {
-    /// Writes the header lines. Fails if a metadata key or value cannot be
-    /// written on one line.
-    pub fn new(mut w: W, header: &NativeHeader) -> std::io::Result<Self> {
-        writeln!(w, "{MAGIC} {VERSION}")?;
+    /// Writes the header lines of a v2 log. Fails if a metadata key or value
+    /// cannot be written on one line.
+    pub fn new(w: W, header: &NativeHeader) -> std::io::Result<Self> {
+        Self::with_version(w, header, VERSION)
+    }
+
+    /// [`NativeWriter::new`] for a given version of [`READ_VERSIONS`]: a v1
+    /// writer (for readers that know only v1) refuses WiFi scans.
+    pub fn with_version(mut w: W, header: &NativeHeader, version: u32) -> std::io::Result<Self> {
+        if !READ_VERSIONS.contains(&version) {
+            return Err(invalid(format!(
+                "native log version {version} is not one of {READ_VERSIONS:?}"
+            )));
+        }
+        writeln!(w, "{MAGIC} {version}")?;
         for (k, v) in &header.meta {
             if k.is_empty() || k.contains(char::is_whitespace) || k.contains('=') {
                 return Err(invalid(format!("native header: bad metadata key `{k}`")));
@@ -72,6 +92,7 @@ impl<W: Write> NativeWriter<W> {
         Ok(NativeWriter {
             w,
             line: String::new(),
+            version,
         })
     }
 
@@ -127,8 +148,12 @@ impl<W: Write> NativeWriter<W> {
                 opt(g.speed_mps),
                 opt(g.bearing_deg)
             ),
-            LogEvent::Wifi(_) => {
-                return Err(invalid("native log v1 has no WiFi lines".to_string()));
+            LogEvent::Wifi(w) => {
+                if self.version < 2 {
+                    return Err(invalid("native log v1 has no WiFi lines".to_string()));
+                }
+                write_wifi(l, w)?;
+                Ok(())
             }
             LogEvent::Truth(t) => write!(
                 l,
@@ -150,6 +175,72 @@ impl<W: Write> NativeWriter<W> {
     }
 }
 
+/// `t WIFI n` then `bssid rssi freq_mhz seen_t_ns` per result. BSSIDs must
+/// be canonical (lower-case `aa:bb:cc:dd:ee:ff`, what the readers produce),
+/// so that a write -> read round trip is exact.
+fn write_wifi(l: &mut String, w: &WifiScan) -> std::io::Result<()> {
+    use std::fmt::Write as _;
+    if w.results.len() > MAX_RESULTS_PER_SCAN {
+        return Err(invalid(format!(
+            "native log: WiFi scan at {} has {} results (at most {MAX_RESULTS_PER_SCAN})",
+            w.t_ns,
+            w.results.len()
+        )));
+    }
+    let _ = write!(l, "{} WIFI {}", w.t_ns, w.results.len());
+    for r in &w.results {
+        if bssid(&r.bssid).as_deref() != Ok(r.bssid.as_str()) {
+            return Err(invalid(format!(
+                "native log: BSSID `{}` is not lower-case aa:bb:cc:dd:ee:ff",
+                r.bssid
+            )));
+        }
+        let _ = write!(
+            l,
+            " {} {} {} {}",
+            r.bssid, r.rssi_dbm, r.freq_mhz, r.seen_t_ns
+        );
+    }
+    Ok(())
+}
+
+/// Parses a `WIFI` line's fields (`f[0]` = t_ns, `f[1]` = `WIFI`). The count
+/// is checked against the line's length before anything is allocated.
+fn parse_wifi(f: &[&str], t_ns: i64) -> Result<WifiScan, String> {
+    let n = i64_field(f, 2, "n_results")?;
+    let n = usize::try_from(n)
+        .ok()
+        .filter(|n| *n <= MAX_RESULTS_PER_SCAN)
+        .ok_or_else(|| format!("field 3 (n_results): {n} is not in 0..={MAX_RESULTS_PER_SCAN}"))?;
+    if f.len() != 3 + 4 * n {
+        return Err(format!(
+            "WIFI with {n} results needs {} values, got {}",
+            1 + 4 * n,
+            f.len() - 2
+        ));
+    }
+    let mut results = Vec::with_capacity(n);
+    for k in 0..n {
+        let i = 3 + 4 * k;
+        let freq = i64_field(f, i + 2, "freq_mhz")?;
+        let seen_t_ns = i64_field(f, i + 3, "seen_t_ns")?;
+        if seen_t_ns > t_ns {
+            return Err(format!(
+                "field {} (seen_t_ns): {seen_t_ns} is after the scan's time {t_ns}",
+                i + 4
+            ));
+        }
+        results.push(WifiResult {
+            bssid: bssid(f[i]).map_err(|m| format!("field {} (bssid): {m}", i + 1))?,
+            rssi_dbm: f64_field(f, i + 1, "rssi_dbm")?,
+            freq_mhz: u32::try_from(freq)
+                .map_err(|_| format!("field {} (freq_mhz): {freq} is out of range", i + 3))?,
+            seen_t_ns,
+        });
+    }
+    Ok(WifiScan { t_ns, results })
+}
+
 /// Parses the header line; `Ok(version)` when it is a native header.
 pub fn parse_magic(line: &str) -> Option<&str> {
     let rest = line.trim_end().strip_prefix(MAGIC)?;
@@ -157,11 +248,13 @@ pub fn parse_magic(line: &str) -> Option<&str> {
     (rest.starts_with(char::is_whitespace) && !v.is_empty()).then_some(v)
 }
 
-/// Line parser of native v1 logs.
+/// Line parser of native v1 and v2 logs.
 #[derive(Debug, Default)]
 pub struct NativeParser {
     /// Metadata gathered from `#meta` lines.
     pub header: NativeHeader,
+    /// The version of the header line, once read.
+    pub version: Option<u32>,
     default_floor: Option<i32>,
 }
 
@@ -169,6 +262,7 @@ impl NativeParser {
     pub fn new(default_floor: Option<i32>) -> Self {
         NativeParser {
             header: NativeHeader::new(),
+            version: None,
             default_floor,
         }
     }
@@ -177,6 +271,12 @@ impl NativeParser {
     pub fn parse_line(&mut self, line: &str) -> LineOutcome {
         let line = line.trim_end_matches(['\r', '\n']);
         if line.trim().is_empty() {
+            return LineOutcome::Header;
+        }
+        if self.version.is_none()
+            && let Some(v) = parse_magic(line.trim_start_matches('\u{feff}'))
+        {
+            self.version = v.parse().ok();
             return LineOutcome::Header;
         }
         if let Some(rest) = line.strip_prefix('#') {
@@ -189,6 +289,9 @@ impl NativeParser {
         }
         match self.parse_event(line) {
             Ok(e) => LineOutcome::Event(e),
+            Err(m) if line.split_whitespace().nth(1) == Some("WIFI") => {
+                LineOutcome::MalformedWifi(m)
+            }
             Err(m) => LineOutcome::Malformed(m),
         }
     }
@@ -284,6 +387,10 @@ impl NativeParser {
                     floor,
                 }))
             }
+            "WIFI" if self.version.is_some_and(|v| v < 2) => {
+                Err("WIFI lines need native log version 2 (this file is version 1)".into())
+            }
+            "WIFI" => Ok(LogEvent::Wifi(parse_wifi(&f, t_ns)?)),
             other => Err(format!("unknown event kind `{other}`")),
         }
     }

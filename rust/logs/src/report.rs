@@ -70,12 +70,22 @@ pub struct ReadReport {
     pub header_lines: u64,
     /// Events handed out, per kind.
     pub events: KindCounts,
-    /// Well-formed records of kinds fpbp does not use (WiFi, uncalibrated IMU, light, sound, ...).
+    /// Well-formed records of kinds fpbp does not use (uncalibrated IMU, light, sound, ...).
     pub ignored_records: u64,
     /// Malformed lines skipped (lenient mode).
     pub malformed_skipped: u64,
     /// `file:line: message` of the first malformed line, when any.
     pub first_malformed: Option<String>,
+    /// WiFi rows read (one access point each; `events.wifi` counts the scans
+    /// they were grouped into).
+    #[serde(default)]
+    pub wifi_rows: u64,
+    /// Malformed WiFi rows, skipped (also counted in `malformed_skipped`).
+    #[serde(default)]
+    pub malformed_wifi_rows: u64,
+    /// `file:line: message` of the first malformed WiFi row, when any.
+    #[serde(default)]
+    pub first_malformed_wifi: Option<String>,
     /// Rows whose time is earlier than an earlier row's (before reordering).
     pub backwards_timestamps: u64,
     /// Rows that arrived later than the reorder window allows, dropped.

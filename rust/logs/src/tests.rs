@@ -2,7 +2,9 @@
 
 use std::io::Write;
 
-use fpbp_core::events::{BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint};
+use fpbp_core::events::{
+    BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult, WifiScan,
+};
 use proptest::prelude::*;
 
 use super::*;
@@ -73,6 +75,28 @@ fn sample_events() -> Vec<LogEvent> {
             speed_mps: None,
             bearing_deg: Some(270.0),
         }),
+        LogEvent::Wifi(WifiScan {
+            t_ns: 16,
+            results: vec![
+                WifiResult {
+                    bssid: "a8:0c:ca:03:9d:d7".into(),
+                    rssi_dbm: -49.0,
+                    freq_mhz: 2422,
+                    seen_t_ns: -3_000_000_000,
+                },
+                WifiResult {
+                    bssid: "a8:0c:ca:83:9d:d7".into(),
+                    rssi_dbm: -59.5,
+                    freq_mhz: 5785,
+                    seen_t_ns: 16,
+                },
+            ],
+        }),
+        // a scan that heard nothing
+        LogEvent::Wifi(WifiScan {
+            t_ns: 17,
+            results: vec![],
+        }),
         LogEvent::Truth(TruthPoint {
             t_ns: 17,
             x_m: 12.5,
@@ -105,7 +129,7 @@ fn native_round_trip_of_every_kind_plain_and_gzip() {
     let bytes = write_native(&events, &header);
     let text = String::from_utf8(bytes.clone()).unwrap();
     assert!(
-        text.starts_with("#fpbp-log 1\n#meta device=Pixel 7 (test)\n#meta seed=42\n"),
+        text.starts_with("#fpbp-log 2\n#meta device=Pixel 7 (test)\n#meta seed=42\n"),
         "{text}"
     );
     for data in [bytes.clone(), gz(&bytes)] {
@@ -121,6 +145,181 @@ fn native_round_trip_of_every_kind_plain_and_gzip() {
         assert_eq!(rep.header_lines, 3);
         assert_eq!(rep.malformed_skipped, 0);
     }
+}
+
+#[test]
+fn native_v1_files_still_read_and_v1_has_no_wifi() {
+    // A v1 file as the v1 writer wrote it (every v1 kind).
+    let v1: Vec<LogEvent> = sample_events()
+        .into_iter()
+        .filter(|e| !matches!(e, LogEvent::Wifi(_)))
+        .collect();
+    let mut w = NativeWriter::with_version(Vec::new(), &NativeHeader::new(), 1).unwrap();
+    for e in &v1 {
+        w.write(e).unwrap();
+    }
+    let text = String::from_utf8(w.finish().unwrap()).unwrap();
+    assert!(text.starts_with("#fpbp-log 1\n"), "{text}");
+    assert!(text.contains("\n10 ACC 0.1 -0.2 9.81\n"), "{text}");
+    let mut r = LogReader::from_reader(
+        "v1.log",
+        std::io::Cursor::new(text.clone().into_bytes()),
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    let got: Vec<_> = r.by_ref().collect();
+    assert_eq!(got, v1);
+    assert_eq!(r.native_version(), Some(1));
+    // The v1 writer refuses WiFi; a WIFI line in a v1 file is a malformed WiFi row.
+    let mut w = NativeWriter::with_version(Vec::new(), &NativeHeader::new(), 1).unwrap();
+    let scan = sample_events()
+        .into_iter()
+        .find(|e| matches!(e, LogEvent::Wifi(_)))
+        .unwrap();
+    assert!(w.write(&scan).is_err());
+    assert!(NativeWriter::with_version(Vec::new(), &NativeHeader::new(), 3).is_err());
+    let bad = format!("{text}20 WIFI 1 a8:0c:ca:03:9d:d7 -49 2422 20\n");
+    let (ev, rep) = read_str(&bad, &ReadOptions::default()).unwrap();
+    assert_eq!(ev, v1);
+    assert_eq!(rep.malformed_wifi_rows, 1);
+    let named = rep.first_malformed_wifi.unwrap();
+    assert!(named.contains("need native log version 2"), "{named}");
+}
+
+#[test]
+fn native_wifi_lines_are_checked_before_allocating() {
+    let cases = [
+        ("1 WIFI 2 a8:0c:ca:03:9d:d7 -49 2422 1", "needs 9 values"),
+        (
+            "1 WIFI 99999999999 a8:0c:ca:03:9d:d7 -49 2422 1",
+            "n_results",
+        ),
+        ("1 WIFI 1 A8:0C:CA:03:9D:D7x -49 2422 1", "bssid"),
+        ("1 WIFI 1 a8:0c:ca:03:9d:d7 -49 2422 2", "after the scan"),
+        ("1 WIFI 1 a8:0c:ca:03:9d:d7 -49 -5 1", "freq_mhz"),
+    ];
+    for (line, what) in cases {
+        let text = format!("#fpbp-log 2\n0 ACC 0 0 9.8\n{line}\n");
+        let (ev, rep) = read_str(&text, &ReadOptions::default()).unwrap();
+        assert_eq!(ev.len(), 1, "{line}");
+        assert_eq!((rep.malformed_wifi_rows, rep.malformed_skipped), (1, 1));
+        let named = rep.first_malformed_wifi.unwrap();
+        assert!(
+            named.starts_with("mem.txt:3:") && named.contains(what),
+            "{named}"
+        );
+        let strict = ReadOptions {
+            strict: true,
+            ..Default::default()
+        };
+        let e = read_str(&text, &strict).unwrap_err().to_string();
+        assert!(e.starts_with("mem.txt:3:"), "{e}");
+    }
+    // Upper-case BSSIDs are read (normalised) but the writer wants them canonical.
+    let (ev, _) = read_str(
+        "#fpbp-log 2\n5 WIFI 1 A8:0C:CA:03:9D:D7 -49 2422 1\n",
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    match &ev[0] {
+        LogEvent::Wifi(w) => assert_eq!(w.results[0].bssid, "a8:0c:ca:03:9d:d7"),
+        e => panic!("{e:?}"),
+    }
+    let mut w = NativeWriter::new(Vec::new(), &NativeHeader::new()).unwrap();
+    let upper = LogEvent::Wifi(WifiScan {
+        t_ns: 5,
+        results: vec![WifiResult {
+            bssid: "A8:0C:CA:03:9D:D7".into(),
+            rssi_dbm: -49.0,
+            freq_mhz: 2422,
+            seen_t_ns: 1,
+        }],
+    });
+    assert!(w.write(&upper).is_err());
+}
+
+#[test]
+fn ilc_wifi_rows_become_scans_with_their_ages() {
+    // Generated in the ILC layout: two scans, the second with a result 20 s
+    // old, a malformed row inside the first, sensor rows around them.
+    let text = "#\tstartTime:1600000000000\n\
+        1600000000500\tTYPE_ACCELEROMETER\t0.1\t0.2\t9.8\t3\n\
+        1600000002000\tTYPE_WIFI\tFMI\ta8:0c:ca:03:9d:d7\t-49\t2422\t1600000001500\n\
+        1600000002000\tTYPE_WIFI\t\tA8:0C:CA:83:9D:D7\t-59\t5785\t1600000001900\n\
+        1600000002000\tTYPE_WIFI\tx\tnot-a-bssid\t-59\t5785\t1600000001900\n\
+        1600000002000\tTYPE_WIFI\tFMI\t04:33:89:79:fc:7c\t-70\t2412\t1600000001000\n\
+        1600000002010\tTYPE_ACCELEROMETER\t0.1\t0.2\t9.8\t3\n\
+        1600000004100\tTYPE_WIFI\tFMI\ta8:0c:ca:03:9d:d7\t-51\t2422\t1600000004000\n\
+        1600000004100\tTYPE_WIFI\told\t12:74:9c:2b:13:8f\t-80\t5180\t1599999984100\n\
+        #\tendTime:1600000004200\n";
+    let (ev, rep) = read_str(text, &ReadOptions::default()).unwrap();
+    let scans: Vec<&WifiScan> = ev
+        .iter()
+        .filter_map(|e| match e {
+            LogEvent::Wifi(w) => Some(w),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(ev.len(), 4);
+    assert_eq!(scans.len(), 2);
+    assert_eq!(scans[0].t_ns, 2_000_000_000);
+    let got: Vec<(&str, i64)> = scans[0]
+        .results
+        .iter()
+        .map(|r| (r.bssid.as_str(), r.seen_t_ns))
+        .collect();
+    assert_eq!(
+        got,
+        vec![
+            ("a8:0c:ca:03:9d:d7", 1_500_000_000),
+            ("a8:0c:ca:83:9d:d7", 1_900_000_000),
+            ("04:33:89:79:fc:7c", 1_000_000_000)
+        ]
+    );
+    assert_eq!(scans[1].t_ns, 4_100_000_000);
+    assert_eq!(scans[1].results[1].seen_t_ns, -15_900_000_000);
+    assert_eq!((rep.events.wifi, rep.wifi_rows), (2, 5));
+    assert_eq!((rep.malformed_wifi_rows, rep.malformed_skipped), (1, 1));
+    assert!(
+        rep.first_malformed_wifi
+            .unwrap()
+            .starts_with("mem.txt:5: field 4 (bssid)")
+    );
+    assert_eq!(rep.ignored_records, 0);
+    let strict = ReadOptions {
+        strict: true,
+        ..Default::default()
+    };
+    let e = read_str(text, &strict).unwrap_err().to_string();
+    assert!(e.starts_with("mem.txt:5:"), "{e}");
+}
+
+#[test]
+fn ipin_wifi_rows_are_grouped_by_app_timestamp() {
+    let text = "% GetSensorData-like header (generated)\n\
+        ACCE;0.010;100.0;0.1;0.2;9.8;3\n\
+        WIFI;0.651;65094.18;SSID2023_0001;20:23:00:00:00:01;2437;-60\n\
+        WIFI;0.651;65094.1801;SSID2023_0025;20:23:00:00:00:80;5200;-70\n\
+        ACCE;0.700;100.7;0.1;0.2;9.8;3\n\
+        WIFI;4.6;65098.1;SSID2023_0001;20:23:00:00:00:01;2437;NaN\n\
+        WIFI;4.6;65098.1;SSID2023_0001;20:23:00:00:00:01;2437;-62\n";
+    let (ev, rep) = read_str(text, &ReadOptions::default()).unwrap();
+    let scans: Vec<&WifiScan> = ev
+        .iter()
+        .filter_map(|e| match e {
+            LogEvent::Wifi(w) => Some(w),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(scans.len(), 2);
+    assert_eq!(scans[0].t_ns, 651_000_000);
+    assert_eq!(scans[0].results.len(), 2);
+    assert_eq!(scans[0].results[1].freq_mhz, 5200);
+    assert!(scans[0].results.iter().all(|r| r.seen_t_ns == 651_000_000));
+    assert_eq!(scans[1].t_ns, 4_600_000_000);
+    assert_eq!(scans[1].results.len(), 1);
+    assert_eq!(rep.non_finite_dropped, 1);
+    assert_eq!(rep.wifi_rows, 4);
 }
 
 #[test]
@@ -380,6 +579,34 @@ fn event() -> impl Strategy<Value = LogEvent> {
                 })
             }
         ),
+        (
+            t.clone(),
+            proptest::collection::vec(
+                (
+                    any::<[u8; 6]>(),
+                    finite(),
+                    1u32..100_000,
+                    0i64..1_000_000_000_000
+                ),
+                0..5
+            )
+        )
+            .prop_map(|(t_ns, rs)| LogEvent::Wifi(WifiScan {
+                t_ns,
+                results: rs
+                    .into_iter()
+                    .map(|(b, rssi_dbm, freq_mhz, age)| WifiResult {
+                        bssid: b
+                            .iter()
+                            .map(|x| format!("{x:02x}"))
+                            .collect::<Vec<_>>()
+                            .join(":"),
+                        rssi_dbm,
+                        freq_mhz,
+                        seen_t_ns: t_ns - age,
+                    })
+                    .collect()
+            })),
         (t, finite(), finite(), proptest::option::of(any::<i32>())).prop_map(
             |(t_ns, x_m, y_m, floor)| LogEvent::Truth(TruthPoint {
                 t_ns,
@@ -410,8 +637,8 @@ proptest! {
     }
 
     #[test]
-    fn arbitrary_lines_never_panic(lines in proptest::collection::vec("[ -~\t]{0,60}", 0..30), fmt in 0usize..3) {
-        let head = ["#fpbp-log 1", "#\tstartTime:1000", "% ipin"][fmt];
+    fn arbitrary_lines_never_panic(lines in proptest::collection::vec("[ -~\t]{0,60}", 0..30), fmt in 0usize..4) {
+        let head = ["#fpbp-log 1", "#\tstartTime:1000", "% ipin", "#fpbp-log 2"][fmt];
         let text = format!("{head}\n{}\n", lines.join("\n"));
         let r = read_str(&text, &ReadOptions::default());
         prop_assert!(r.is_ok());

@@ -220,6 +220,7 @@ fn main() -> anyhow::Result<()> {
             height_m: 0.0,
         }],
         beacons,
+        access_points: vec![],
         georef: None,
     };
     let site_path = out.join("site.json");

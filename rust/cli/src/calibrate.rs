@@ -17,6 +17,7 @@ use fpbp_core::engine::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::site::SiteSpec;
+use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
 use fpbp_logs::{ReadOptions, read_all};
 
 use crate::eval::{Split, select_logs};
@@ -54,6 +55,13 @@ pub struct Args {
     /// Engines for --check-logs.
     #[arg(long, default_value = "gml,trilat,frbw,ml,wcentroid")]
     pub check_engines: String,
+    /// Also calibrate the WiFi access points heard in the logs (config
+    /// section `wifi`) and write them as the site's `access_points`.
+    #[arg(long)]
+    pub wifi: bool,
+    /// Write every AP transmitter's report (accepted and rejected) as JSON here.
+    #[arg(long)]
+    pub wifi_report: Option<PathBuf>,
 }
 
 fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
@@ -227,16 +235,19 @@ pub fn run(args: Args) -> Result<()> {
     }
     let opts = read_options(&spec, args.floor);
     let mut paths = Vec::new();
+    let mut wifi_paths = Vec::new();
     for l in &logs {
         let events = load_events(l, &opts)?;
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()
         };
+        let mut scans = Vec::new();
         for e in events {
             match e {
                 LogEvent::Ble(b) => p.observations.push(b),
                 LogEvent::Truth(t) => p.truth.push(t),
+                LogEvent::Wifi(w) if args.wifi => scans.push(w),
                 _ => {}
             }
         }
@@ -244,11 +255,119 @@ pub fn run(args: Args) -> Result<()> {
             eprintln!("{}: fewer than 2 truth points, skipped", l.display());
             continue;
         }
+        if args.wifi {
+            wifi_paths.push(WifiSurveyPath {
+                name: p.name.clone(),
+                scans,
+                truth: p.truth.clone(),
+            });
+        }
         paths.push(p);
     }
     let (mut reports, mut summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
-    // a transmitter fitted outside its floor's map cannot go into the site
     let input = crate::site_io::load_site(&args.site)?;
+    place_on_maps(&mut reports, &mut summary, &input);
+    print_table(&reports);
+    let too_little = reports.iter().filter(|r| r.x_m.is_none()).count();
+    println!(
+        "\n{} paths, {} BLE observations ({} without truth around them, {} invalid); {} transmitters: {} left out for too little data, {} fitted, {} fixed-looking kept",
+        summary.paths,
+        summary.observations,
+        summary.without_truth,
+        summary.invalid,
+        summary.transmitters,
+        too_little,
+        summary.transmitters - too_little,
+        summary.accepted
+    );
+    let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
+    if args.wifi {
+        out = calibrate_wifi(&args, &wifi_paths, &cfg, &input, &out)?;
+    }
+    rebase_plans(&mut out, &args.site, &args.out);
+    let text = out.to_json_pretty();
+    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
+    println!(
+        "wrote {} ({} beacons, {} access points)",
+        args.out.display(),
+        out.beacons.len(),
+        out.access_points.len()
+    );
+    if let Some(r) = &args.report {
+        std::fs::write(r, serde_json::to_string_pretty(&reports)?)
+            .with_context(|| format!("writing {}", r.display()))?;
+    }
+    if !args.check_logs.is_empty() {
+        check(&args, &out, &cfg)?;
+    }
+    Ok(())
+}
+
+/// `fpbp calibrate --wifi`: fits the APs (`fpbp_core::wifi::calibrate`),
+/// places them on the maps as beacons are placed, prints a summary and the
+/// residuals per band, and returns `site` with the accepted APs.
+fn calibrate_wifi(
+    args: &Args,
+    paths: &[WifiSurveyPath],
+    cfg: &EngineConfig,
+    input: &fpbp_core::site::Site,
+    site: &SiteSpec,
+) -> Result<SiteSpec> {
+    let mut cal = calibrate_aps(paths, &cfg.wifi, &cfg.ble).context("AP calibration")?;
+    place_on_maps(&mut cal.reports, &mut cal.summary, input);
+    let fitted: Vec<&TransmitterReport> = cal.reports.iter().filter(|r| r.x_m.is_some()).collect();
+    let accepted: Vec<&TransmitterReport> =
+        fitted.iter().copied().filter(|r| r.accepted()).collect();
+    let mut resid: Vec<f64> = accepted.iter().filter_map(|r| r.residual_dbm).collect();
+    resid.sort_by(f64::total_cmp);
+    let mut reasons: std::collections::BTreeMap<String, usize> = Default::default();
+    for r in &fitted {
+        if let Some(why) = &r.rejected {
+            let head = why
+                .split(['(', ':'])
+                .next()
+                .unwrap_or(why)
+                .trim()
+                .to_string();
+            *reasons.entry(head).or_default() += 1;
+        }
+    }
+    println!(
+        "\nWiFi ({:?} grouping): {} results, {} used (new, at most {} s old, >= {} dBm); {} transmitters, {} fitted, {} accepted ({} BSSIDs); residual of the accepted p25/p50/p75 {:.1}/{:.1}/{:.1} dB",
+        cfg.wifi.grouping,
+        cal.results,
+        cal.used,
+        cfg.wifi.max_age_s,
+        cfg.wifi.min_rssi_dbm,
+        cal.reports.len(),
+        fitted.len(),
+        accepted.len(),
+        accepted
+            .iter()
+            .map(|r| cal.members.get(&r.id).map_or(0, |m| m.len()))
+            .sum::<usize>(),
+        percentile(&resid, 0.25),
+        percentile(&resid, 0.5),
+        percentile(&resid, 0.75)
+    );
+    for (why, n) in &reasons {
+        println!("  rejected: {n} {why}");
+    }
+    if let Some(r) = &args.wifi_report {
+        std::fs::write(r, serde_json::to_string_pretty(&cal.reports)?)
+            .with_context(|| format!("writing {}", r.display()))?;
+    }
+    Ok(apply_aps_to_site(site, &cal, cfg.ble.phone_height_m))
+}
+
+/// A transmitter fitted outside its floor's map cannot go into the site; one
+/// fitted on a Wall pixel moves to the nearest non-Wall point (BLE beacons
+/// and WiFi APs alike).
+fn place_on_maps(
+    reports: &mut [TransmitterReport],
+    summary: &mut fpbp_core::ble::calibrate::CalibrationSummary,
+    input: &fpbp_core::site::Site,
+) {
     for r in reports.iter_mut().filter(|r| r.accepted()) {
         let (Some(x), Some(y)) = (r.x_m, r.y_m) else {
             continue;
@@ -291,36 +410,6 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    print_table(&reports);
-    let too_little = reports.iter().filter(|r| r.x_m.is_none()).count();
-    println!(
-        "\n{} paths, {} BLE observations ({} without truth around them, {} invalid); {} transmitters: {} left out for too little data, {} fitted, {} fixed-looking kept",
-        summary.paths,
-        summary.observations,
-        summary.without_truth,
-        summary.invalid,
-        summary.transmitters,
-        too_little,
-        summary.transmitters - too_little,
-        summary.accepted
-    );
-    let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
-    rebase_plans(&mut out, &args.site, &args.out);
-    let text = out.to_json_pretty();
-    std::fs::write(&args.out, text).with_context(|| format!("writing {}", args.out.display()))?;
-    println!(
-        "wrote {} ({} beacons)",
-        args.out.display(),
-        out.beacons.len()
-    );
-    if let Some(r) = &args.report {
-        std::fs::write(r, serde_json::to_string_pretty(&reports)?)
-            .with_context(|| format!("writing {}", r.display()))?;
-    }
-    if !args.check_logs.is_empty() {
-        check(&args, &out, &cfg)?;
-    }
-    Ok(())
 }
 
 /// Largest move of a fitted beacon out of a wall, metres.

@@ -55,6 +55,9 @@ pub struct Args {
     /// Fingerprint database for `robust-ekf` (`fpbp fingerprint build`); default: the site's model database.
     #[arg(long)]
     pub fingerprints: Option<PathBuf>,
+    /// Radios whose events the engines get (the others' are dropped before replay).
+    #[arg(long, value_enum, value_delimiter = ',', default_value = "ble,wifi")]
+    pub radios: Vec<crate::radios::Radio>,
 }
 
 /// Applies the split to `logs` sorted by file name.
@@ -191,7 +194,8 @@ pub fn run_with(
     let mut reads: Vec<ReadSummary> = Vec::new();
     for path in &logs {
         bar.set_message(format!("reading {}", short(path)));
-        let log = common::load_log(path, &opts)?;
+        let mut log = common::load_log(path, &opts)?;
+        crate::radios::keep_radios(&mut log.events, &args.radios);
         reads.push(ReadSummary::from(&log.report));
         for (i, e) in engines.iter().enumerate() {
             bar.set_message(format!("{e} on {}", short(path)));
@@ -323,6 +327,7 @@ mod tests {
             floor: None,
             strict: false,
             fingerprints: None,
+            radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
         };
         let ms = run_with(&args, &builder, false).unwrap();
         assert_eq!(ms.len(), 2);
@@ -411,6 +416,7 @@ mod tests {
             floor: None,
             strict: true,
             fingerprints: None,
+            radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
         };
         let ms = run_with(&args, &common::core_builder, false).unwrap();
         let m = &ms[0];

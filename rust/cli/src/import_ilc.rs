@@ -244,6 +244,7 @@ pub fn import(args: &Args) -> Result<IlcReport> {
             height_m: 0.0,
         }],
         beacons: vec![],
+        access_points: vec![],
         georef: Some(frame.georef()),
     };
     std::fs::write(

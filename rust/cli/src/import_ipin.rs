@@ -581,6 +581,7 @@ pub fn import(args: &Args) -> Result<IpinReport> {
         grid_interval_m: 1.0,
         floors,
         beacons,
+        access_points: vec![],
         georef: Some(frame.georef),
     };
     std::fs::write(

@@ -14,6 +14,7 @@ mod import_overlay;
 mod import_raster;
 mod import_truth;
 mod map_check;
+mod radios;
 mod realism;
 mod replay;
 mod simulate;

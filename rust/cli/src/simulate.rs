@@ -26,7 +26,7 @@ pub struct Args {
     /// Output log (native format; gzip if the name ends in .gz).
     #[arg(long)]
     pub out: PathBuf,
-    /// Profile: a name (default, swinging, ilc-like, ipin-like) or a JSON file
+    /// Profile: a name (default, swinging, ilc-like, ipin-like, wifi, wifi-throttled) or a JSON file
     /// of `SimProfile` (missing fields take the defaults).
     #[arg(long, default_value = "default")]
     pub profile: String,
@@ -92,8 +92,19 @@ pub fn write_log(log: &SimLog, site_file: &str, out: &Path) -> Result<()> {
     } else {
         Box::new(BufWriter::new(f))
     };
-    let mut nw =
-        NativeWriter::new(w, &header).with_context(|| format!("writing {}", out.display()))?;
+    // v1 when the log has no WiFi: logs without WiFi stay byte for byte what
+    // they were, and readers that know only v1 (the Kotlin recorder's) read them.
+    let version = if log
+        .events
+        .iter()
+        .any(|e| matches!(e, fpbp_core::events::LogEvent::Wifi(_)))
+    {
+        fpbp_logs::native::VERSION
+    } else {
+        1
+    };
+    let mut nw = NativeWriter::with_version(w, &header, version)
+        .with_context(|| format!("writing {}", out.display()))?;
     for e in &log.events {
         nw.write(e)
             .with_context(|| format!("writing {}", out.display()))?;
@@ -129,14 +140,20 @@ pub fn run(args: Args) -> Result<()> {
         .iter()
         .filter(|e| matches!(e, fpbp_core::events::LogEvent::Ble(_)))
         .count();
+    let wifi = log
+        .events
+        .iter()
+        .filter(|e| matches!(e, fpbp_core::events::LogEvent::Wifi(_)))
+        .count();
     println!(
-        "wrote {}: {} events, {:.0} s, {} steps, {:.1} m walked, {} BLE reports, floor {}, profile {}",
+        "wrote {}: {} events, {:.0} s, {} steps, {:.1} m walked, {} BLE reports, {} WiFi scans, floor {}, profile {}",
         args.out.display(),
         log.events.len(),
         log.header.duration_s,
         log.header.steps,
         log.header.distance_m,
         ble,
+        wifi,
         log.header.floor,
         log.header.profile.name
     );

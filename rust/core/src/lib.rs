@@ -20,6 +20,7 @@ pub mod kalman;
 pub mod map;
 pub mod pdr;
 pub mod site;
+pub mod wifi;
 
 pub use error::{Error, Result};
 pub use geometry::Vec2;

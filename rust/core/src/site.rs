@@ -41,6 +41,12 @@ pub struct SiteSpec {
     /// Beacons; may be empty (PDR-only sites, or before `fpbp calibrate`).
     #[serde(default)]
     pub beacons: Vec<BeaconSpec>,
+    /// WiFi access points, one entry per BSSID (`id` = lower-case
+    /// `aa:bb:cc:dd:ee:ff`), with the same fields and model as beacons
+    /// (docs/formats.md says why a parallel list). Left out of the file when
+    /// empty.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub access_points: Vec<BeaconSpec>,
     /// Optional WGS-84 georeference of the MCS (for GNSS and lat/lon truth).
     #[serde(default)]
     pub georef: Option<GeoRef>,
@@ -315,17 +321,44 @@ impl SiteSpec {
                 }
             }
         }
-        for (k, b) in self.beacons.iter().enumerate() {
-            let at = |name: &str| format!("beacons[{k}].{name}");
-            if b.id.trim().is_empty() {
-                return Err(site_err(file, at("id"), "empty beacon id"));
-            }
-            if self.beacons[..k].iter().any(|c| c.id == b.id) {
+        self.validate_transmitters(file, "beacons", &self.beacons)?;
+        self.validate_transmitters(file, "access_points", &self.access_points)?;
+        for (k, a) in self.access_points.iter().enumerate() {
+            if !crate::wifi::is_bssid(&a.id) {
                 return Err(site_err(
                     file,
-                    at("id"),
-                    format!("duplicate beacon id {}", b.id),
+                    format!("access_points[{k}].id"),
+                    format!("`{}` is not a lower-case BSSID aa:bb:cc:dd:ee:ff", a.id),
                 ));
+            }
+        }
+        if let Some(g) = &self.georef {
+            if !(-90.0..=90.0).contains(&g.lat_deg) {
+                return Err(site_err(file, "georef.lat_deg", "must be in [-90, 90]"));
+            }
+            if !(-180.0..=180.0).contains(&g.lon_deg) {
+                return Err(site_err(file, "georef.lon_deg", "must be in [-180, 180]"));
+            }
+            if !(g.x_m.is_finite() && g.y_m.is_finite()) {
+                return Err(site_err(file, "georef.x_m", "x_m and y_m must be finite"));
+            }
+        }
+        Ok(())
+    }
+}
+
+impl SiteSpec {
+    /// Checks one list of transmitters (`beacons` or `access_points`): ids
+    /// non-empty and unique, floors known, finite positions, a negative R0
+    /// and a positive exponent.
+    fn validate_transmitters(&self, file: &str, list: &str, items: &[BeaconSpec]) -> Result<()> {
+        for (k, b) in items.iter().enumerate() {
+            let at = |name: &str| format!("{list}[{k}].{name}");
+            if b.id.trim().is_empty() {
+                return Err(site_err(file, at("id"), "empty id"));
+            }
+            if items[..k].iter().any(|c| c.id == b.id) {
+                return Err(site_err(file, at("id"), format!("duplicate id {}", b.id)));
             }
             if !self.floors.iter().any(|f| f.id == b.floor) {
                 return Err(site_err(
@@ -352,17 +385,6 @@ impl SiteSpec {
                     at("path_loss_exponent"),
                     format!("must be > 0, got {}", b.path_loss_exponent),
                 ));
-            }
-        }
-        if let Some(g) = &self.georef {
-            if !(-90.0..=90.0).contains(&g.lat_deg) {
-                return Err(site_err(file, "georef.lat_deg", "must be in [-90, 90]"));
-            }
-            if !(-180.0..=180.0).contains(&g.lon_deg) {
-                return Err(site_err(file, "georef.lon_deg", "must be in [-180, 180]"));
-            }
-            if !(g.x_m.is_finite() && g.y_m.is_finite()) {
-                return Err(site_err(file, "georef.x_m", "x_m and y_m must be finite"));
             }
         }
         Ok(())
@@ -438,44 +460,59 @@ impl Site {
             };
             floors.push(map);
         }
-        for (k, b) in spec.beacons.iter().enumerate() {
-            let Some(fi) = spec.floors.iter().position(|f| f.id == b.floor) else {
-                return Err(site_err(
-                    site_file,
-                    format!("beacons[{k}].floor"),
-                    "unknown floor",
-                ));
-            };
-            let map = &floors[fi];
-            let p = crate::Vec2::new(b.x_m, b.y_m);
-            if map.pixel_of(p).is_none() {
-                return Err(site_err(
-                    site_file,
-                    format!("beacons[{k}]"),
-                    format!(
-                        "beacon {} at ({}, {}) m lies outside floor {}'s plan [0, {:.2}] x [0, {:.2}] m",
-                        b.id,
-                        b.x_m,
-                        b.y_m,
-                        b.floor,
-                        map.width_m(),
-                        map.height_m()
-                    ),
-                ));
-            }
-            if map.feature(p) == Feature::Wall {
-                return Err(site_err(
-                    site_file,
-                    format!("beacons[{k}]"),
-                    format!(
-                        "beacon {} at ({}, {}) m lies inside a Wall",
-                        b.id, b.x_m, b.y_m
-                    ),
-                ));
-            }
+        for (list, items) in [
+            ("beacons", &spec.beacons),
+            ("access_points", &spec.access_points),
+        ] {
+            check_on_plan(site_file, list, items, &spec, &floors)?;
         }
         Ok(Site { spec, floors })
     }
+}
+
+/// Each transmitter of `items` lies inside its floor's plan and not on a
+/// Wall pixel (a Door pixel is allowed).
+fn check_on_plan(
+    site_file: &str,
+    list: &str,
+    items: &[BeaconSpec],
+    spec: &SiteSpec,
+    floors: &[FloorMap],
+) -> Result<()> {
+    for (k, b) in items.iter().enumerate() {
+        let Some(fi) = spec.floors.iter().position(|f| f.id == b.floor) else {
+            return Err(site_err(
+                site_file,
+                format!("{list}[{k}].floor"),
+                "unknown floor",
+            ));
+        };
+        let map = &floors[fi];
+        let p = crate::Vec2::new(b.x_m, b.y_m);
+        if map.pixel_of(p).is_none() {
+            return Err(site_err(
+                site_file,
+                format!("{list}[{k}]"),
+                format!(
+                    "{} at ({}, {}) m lies outside floor {}'s plan [0, {:.2}] x [0, {:.2}] m",
+                    b.id,
+                    b.x_m,
+                    b.y_m,
+                    b.floor,
+                    map.width_m(),
+                    map.height_m()
+                ),
+            ));
+        }
+        if map.feature(p) == Feature::Wall {
+            return Err(site_err(
+                site_file,
+                format!("{list}[{k}]"),
+                format!("{} at ({}, {}) m lies inside a Wall", b.id, b.x_m, b.y_m),
+            ));
+        }
+    }
+    Ok(())
 }
 
 mod json_path {

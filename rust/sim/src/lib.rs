@@ -1,8 +1,9 @@
 //! fpbp-sim: synthetic phone logs with dense ground truth on any fpbp site.
 //!
 //! [`simulate`] plans a walk on one floor of a [`Site`] ([`walk`], [`plan`]),
-//! generates the phone's sensors along it ([`imu`]) and the BLE scan reports
-//! of the site's beacons ([`ble`]), and returns the events in time order with
+//! generates the phone's sensors along it ([`imu`]), the BLE scan reports
+//! of the site's beacons ([`ble`]) and, when the profile asks, WiFi scans of
+//! the site's access points ([`wifi`]), and returns the events in time order with
 //! truth points at every step and at 10 Hz. No file I/O: the CLI writes the
 //! events with `fpbp_logs`. All randomness comes from one `rand_pcg::Pcg64`
 //! seeded with the request's seed, drawn in a fixed order: the same site,
@@ -16,6 +17,7 @@ pub mod plan;
 pub mod profile;
 pub mod stats;
 pub mod walk;
+pub mod wifi;
 
 #[cfg(test)]
 mod testmap;
@@ -153,6 +155,20 @@ pub fn simulate(site: &Site, req: &SimRequest) -> Result<SimLog> {
         req.t0_ns,
         &mut rng,
     );
+    // drawn after everything else, so logs without WiFi are unchanged
+    let wifi_scans = match &p.wifi {
+        Some(w) => wifi::scans(
+            site,
+            w,
+            &p.ble,
+            &traj,
+            floor,
+            p.walk.phone_height_m,
+            req.t0_ns,
+            &mut rng,
+        ),
+        None => Vec::new(),
+    };
 
     // Truth: at every step end and at 10 Hz.
     let mut truth_t: Vec<f64> = traj.steps_in_log().map(|s| s.t_end_s).collect();
@@ -168,6 +184,7 @@ pub fn simulate(site: &Site, req: &SimRequest) -> Result<SimLog> {
     let mut events: Vec<LogEvent> = Vec::with_capacity(sensors.len() + scans.len() + truth.len());
     events.extend(sensors.into_iter().map(LogEvent::Sensor));
     events.extend(scans.into_iter().map(LogEvent::Ble));
+    events.extend(wifi_scans.into_iter().map(LogEvent::Wifi));
     events.extend(truth.into_iter().map(|(t_ns, t)| {
         let q = traj.position_at(t);
         LogEvent::Truth(TruthPoint {

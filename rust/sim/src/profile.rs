@@ -19,6 +19,9 @@ pub struct SimProfile {
     pub imu: ImuConfig,
     /// BLE advertising, scanning and channel.
     pub ble: BleConfig,
+    /// WiFi APs and scans (`None`: no WiFi, and nothing in the log header).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub wifi: Option<crate::wifi::WifiSimConfig>,
 }
 
 impl Default for SimProfile {
@@ -28,12 +31,20 @@ impl Default for SimProfile {
             walk: WalkConfig::default(),
             imu: ImuConfig::default(),
             ble: BleConfig::default(),
+            wifi: None,
         }
     }
 }
 
 /// The names [`SimProfile::named`] knows.
-pub const PROFILE_NAMES: &[&str] = &["default", "swinging", "ilc-like", "ipin-like"];
+pub const PROFILE_NAMES: &[&str] = &[
+    "default",
+    "swinging",
+    "ilc-like",
+    "ipin-like",
+    "wifi",
+    "wifi-throttled",
+];
 
 impl SimProfile {
     /// A named profile: `default` (phone held in front; vertical p-p like
@@ -64,6 +75,15 @@ impl SimProfile {
                 p.walk.step_len_at_max_freq_m = 0.7;
                 p.ble.reception_probability = 0.15;
             }
+            // default + WiFi scans every 2-4 s (site APs or a 15 m lattice)
+            "wifi" => p.wifi = Some(crate::wifi::WifiSimConfig::default()),
+            // ... with Android's foreground throttle (4 scans per 2 minutes)
+            "wifi-throttled" => {
+                p.wifi = Some(crate::wifi::WifiSimConfig {
+                    throttled: true,
+                    ..Default::default()
+                })
+            }
             other => {
                 return Err(Error::config(
                     "profile",
@@ -82,6 +102,9 @@ impl SimProfile {
     pub fn validate(&self) -> Result<()> {
         self.walk.validate()?;
         self.imu.validate()?;
+        if let Some(w) = &self.wifi {
+            w.validate()?;
+        }
         self.ble.validate()
     }
 }

@@ -248,3 +248,117 @@ fn core_pdr_finds_the_true_steps_and_lengths() {
         "PDR distance / true distance = {ratio}"
     );
 }
+
+/// The WiFi profile's scans: 2-4 s apart, results with their own ages
+/// (some cached), the throttle at most 4 scans in any 2 minutes.
+#[test]
+fn wifi_scans_intervals_ages_and_the_throttle() {
+    let site = two_rooms_site();
+    let mut r = request(600.0, 5);
+    r.profile.wifi = Some(crate::wifi::WifiSimConfig {
+        layout_spacing_m: 3.0,
+        ..Default::default()
+    });
+    let scans = |r: &SimRequest| -> Vec<fpbp_core::events::WifiScan> {
+        simulate(&site, r)
+            .unwrap()
+            .events
+            .into_iter()
+            .filter_map(|e| match e {
+                LogEvent::Wifi(w) => Some(w),
+                _ => None,
+            })
+            .collect()
+    };
+    let free = scans(&r);
+    assert!(free.len() > 140 && free.len() < 310, "{}", free.len());
+    for w in free.windows(2) {
+        let dt = (w[1].t_ns - w[0].t_ns) as f64 * 1e-9;
+        assert!((2.0..=4.0).contains(&dt), "{dt}");
+    }
+    let ages: Vec<f64> = free
+        .iter()
+        .flat_map(|s| {
+            s.results
+                .iter()
+                .map(move |x| (s.t_ns - x.seen_t_ns) as f64 * 1e-9)
+        })
+        .collect();
+    assert!(ages.iter().all(|a| (0.0..=30.0).contains(a)));
+    assert!(ages.iter().any(|a| *a > 2.0), "no cached result");
+    assert!(free.iter().all(|s| !s.results.is_empty()));
+    r.profile.wifi.as_mut().unwrap().throttled = true;
+    let thr = scans(&r);
+    // 600 s: at most 4 per 120 s window, and the throttle does bite
+    assert!(thr.len() <= 4 * 5 + 4 && thr.len() >= 16, "{}", thr.len());
+    for (i, s) in thr.iter().enumerate() {
+        let in_window = thr[i..]
+            .iter()
+            .take_while(|o| o.t_ns - s.t_ns < 120_000_000_000)
+            .count();
+        assert!(in_window <= 4, "{in_window} scans within 2 min");
+    }
+    // WiFi draws come last: BLE, sensors and truth are those without WiFi
+    let mut plain = r.clone();
+    plain.profile.wifi = None;
+    let a: Vec<LogEvent> = simulate(&site, &plain).unwrap().events;
+    let b: Vec<LogEvent> = simulate(&site, &r)
+        .unwrap()
+        .events
+        .into_iter()
+        .filter(|e| !matches!(e, LogEvent::Wifi(_)))
+        .collect();
+    assert_eq!(a, b);
+}
+
+/// A simulated log with access points only positions with `wifi-wcentroid`,
+/// better than always answering the floor's centre.
+#[test]
+fn a_log_with_access_points_only_positions() {
+    use fpbp_core::engine::{EngineConfig, build_engine, replay::replay};
+    // an open 40 x 30 m floor with APs on a 10 m lattice
+    let mut site = two_rooms_site();
+    site.floors = vec![fpbp_core::site::open_floor_map(40.0, 30.0, 5.0, 1.0)];
+    site.spec.floors[0].open_area_m = Some([40.0, 30.0]);
+    site.spec.floors[0].pixels_per_meter = Some(5.0);
+    let cfg = crate::wifi::WifiSimConfig {
+        layout_spacing_m: 10.0,
+        ..Default::default()
+    };
+    site.spec.beacons.clear();
+    site.spec.access_points = crate::wifi::access_points(&site, &cfg, 0);
+    assert_eq!(site.spec.access_points.len(), 12);
+    let mut r = request(300.0, 8);
+    r.profile.wifi = Some(cfg);
+    let log = simulate(&site, &r).unwrap();
+    assert!(!log.events.iter().any(|e| matches!(e, LogEvent::Ble(_))));
+    let site = std::sync::Arc::new(site);
+    let mut e = build_engine(
+        "wifi-wcentroid",
+        site.clone(),
+        &EngineConfig::default(),
+        None,
+    )
+    .unwrap();
+    let out = replay(e.as_mut(), log.events.iter().cloned());
+    let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+    assert!(
+        errs.len() as f64 >= 0.95 * out.scored.len() as f64,
+        "{} of {}",
+        errs.len(),
+        out.scored.len()
+    );
+    let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+    let m = &site.floors[0];
+    let centre = Vec2::new(m.width_m() / 2.0, m.height_m() / 2.0);
+    let centre_err = out
+        .scored
+        .iter()
+        .map(|s| (Vec2::new(s.truth.x_m, s.truth.y_m) - centre).norm())
+        .sum::<f64>()
+        / out.scored.len() as f64;
+    assert!(
+        mean < 0.8 * centre_err,
+        "wifi {mean} m vs centre {centre_err} m"
+    );
+}

@@ -63,6 +63,7 @@ pub fn two_rooms_site() -> Site {
                 beacon(3, 7.0, 1.0),
                 beacon(4, 9.0, 5.0),
             ],
+            access_points: vec![],
             georef: None,
         },
         floors: vec![two_rooms()],

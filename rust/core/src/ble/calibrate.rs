@@ -384,12 +384,26 @@ fn pearson(xs: &[f64], ys: &[f64]) -> f64 {
     }
 }
 
-/// Calibrates every transmitter heard in `paths`. Reports are sorted by id.
+/// Calibrates every BLE transmitter heard in `paths`. Reports are sorted by id.
 pub fn calibrate(
     paths: &[SurveyPath],
     cfg: &BleConfig,
 ) -> Result<(Vec<TransmitterReport>, CalibrationSummary)> {
-    let cc = &cfg.calibration;
+    calibrate_with(paths, cfg, &cfg.calibration, &|id| {
+        normalize_beacon_id(id).ok()
+    })
+}
+
+/// [`calibrate`] for any kind of transmitter (BLE beacons, WiFi access
+/// points): `id_of` maps an observation's id to the transmitter it belongs
+/// to (`None`: invalid, counted), `cc` sets the fit and the acceptance tests;
+/// `cfg` gives `min_rssi_dbm` and `min_distance_m`.
+pub fn calibrate_with(
+    paths: &[SurveyPath],
+    cfg: &BleConfig,
+    cc: &CalibrationConfig,
+    id_of: &dyn Fn(&str) -> Option<String>,
+) -> Result<(Vec<TransmitterReport>, CalibrationSummary)> {
     cc.validate()?;
     if paths.is_empty() {
         return Err(Error::Calibration("no survey paths given".into()));
@@ -415,7 +429,7 @@ pub fn calibrate(
             summary.observations += 1;
             let id = id_cache
                 .entry(o.beacon_id.clone())
-                .or_insert_with(|| normalize_beacon_id(&o.beacon_id).ok())
+                .or_insert_with(|| id_of(&o.beacon_id))
                 .clone();
             let Some(id) = id else {
                 summary.invalid += 1;

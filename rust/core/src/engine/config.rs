@@ -39,6 +39,8 @@ pub struct EngineConfig {
     pub ppsa: crate::engines::ppsa::PpsaConfig,
     /// The EKF engines (`robust-ekf`, `tc-ekf`) and the floor tracker.
     pub ekf: crate::kalman::EkfConfig,
+    /// WiFi: fresh results, BSSID grouping, AP calibration, `wifi-wcentroid`.
+    pub wifi: crate::wifi::WifiConfig,
 }
 
 impl Default for EngineConfig {
@@ -52,6 +54,7 @@ impl Default for EngineConfig {
             prox_pf: Default::default(),
             ppsa: Default::default(),
             ekf: crate::kalman::EkfConfig::default(),
+            wifi: crate::wifi::WifiConfig::default(),
         }
     }
 }
@@ -85,6 +88,7 @@ impl EngineConfig {
         self.prox_pf.validate()?;
         self.ppsa.validate()?;
         self.ekf.validate()?;
+        self.wifi.validate()?;
         self.fusion.validate()
     }
 }

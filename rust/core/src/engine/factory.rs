@@ -21,6 +21,7 @@ pub const ENGINE_NAMES: &[&str] = &[
     "ppsa",
     "robust-ekf",
     "tc-ekf",
+    "wifi-wcentroid",
 ];
 
 /// Data some engines can use besides site and config (handed as parsed
@@ -53,6 +54,11 @@ pub fn build_engine_with(
     data: &EngineData,
 ) -> Result<Box<dyn Engine>> {
     config.validate()?;
+    if let Some(e) =
+        crate::engines::ble_only::BleOnlyEngine::new_wifi(name, site.clone(), config, init)
+    {
+        return Ok(Box::new(e));
+    }
     if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
         return Ok(Box::new(crate::engines::ble_only::BleOnlyEngine::new(
             kind, site, config, init,
@@ -136,7 +142,8 @@ mod tests {
             floor: 0,
             heading_rad: None,
         });
-        for name in ENGINE_NAMES {
+        // the WiFi engines use the scans (tests in engines::ble_only)
+        for name in ENGINE_NAMES.iter().filter(|n| !n.starts_with("wifi-")) {
             let cfg = EngineConfig::default();
             let run = |events: &[LogEvent]| {
                 let mut e = build_engine(name, site(), &cfg, init).unwrap();

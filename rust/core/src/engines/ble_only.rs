@@ -1,19 +1,36 @@
-//! BLE-only engines: `gml`, `trilat`, `frbw`, `ml`, `wcentroid`. One BLE task
-//! (front end + positioner + eq. 22 mean filter) every `tasks.gml_period_ms`;
-//! no fusion task. The pose is the last x_B; a run without a fix leaves it
-//! unchanged and counts `no_fix`.
+//! Radio-only engines: `gml`, `trilat`, `frbw`, `ml`, `wcentroid` on BLE, and
+//! `wifi-wcentroid`, the same task on WiFi access points (a causal yardstick
+//! for WiFi: the site's `access_points` stand in for beacons, each new scan
+//! result is one observation). One task (front end + positioner + eq. 22
+//! mean filter) every `tasks.gml_period_ms`; no fusion task. The pose is the
+//! last fix; a run without a fix leaves it unchanged and counts `no_fix`.
 
 use std::sync::Arc;
 
 use crate::Vec2;
-use crate::ble::{BleTask, PositionerKind};
+use crate::ble::{BeaconRegistry, BleFrontEnd, BleTask, PositionerKind};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
-use crate::events::{BleObservation, SensorEvent};
-use crate::site::Site;
+use crate::events::{BleObservation, SensorEvent, WifiScan};
+use crate::site::{BeaconSpec, Site};
+use crate::wifi::FreshResults;
 
-/// A BLE-only engine.
+/// Names of the WiFi engines and their positioners.
+pub const WIFI_ENGINES: [(&str, PositionerKind); 1] =
+    [("wifi-wcentroid", PositionerKind::WeightedCentroid)];
+
+/// What a WiFi engine keeps to turn scans into observations.
+struct WifiInput {
+    name: &'static str,
+    fresh: FreshResults,
+    max_age_ns: i64,
+    min_rssi_dbm: f64,
+}
+
+/// A BLE-only (or WiFi-only) engine.
 pub struct BleOnlyEngine {
     kind: PositionerKind,
+    /// `Some` for the WiFi engines: BLE is then counted and ignored.
+    wifi: Option<WifiInput>,
     task: BleTask,
     period_ns: i64,
     pose: Option<Pose>,
@@ -31,6 +48,7 @@ impl BleOnlyEngine {
     ) -> Self {
         BleOnlyEngine {
             kind,
+            wifi: None,
             task: BleTask::new(kind, &config.ble, &site),
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
@@ -40,9 +58,56 @@ impl BleOnlyEngine {
     }
 }
 
+/// The BLE front end's id of an access point (`mac:` + upper-case BSSID).
+fn ap_id(bssid: &str) -> String {
+    format!("mac:{}", bssid.to_ascii_uppercase())
+}
+
+impl BleOnlyEngine {
+    /// WiFi engine `name` of [`WIFI_ENGINES`]: the BLE task's front end,
+    /// positioner and mean filter over the site's access points, with
+    /// `wifi.wcentroid_*` for the weighted centroid.
+    pub fn new_wifi(
+        name: &str,
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> Option<Self> {
+        let (name, kind) = WIFI_ENGINES.into_iter().find(|(n, _)| *n == name)?;
+        let mut ble = config.ble.clone();
+        ble.wcentroid.top_n = config.wifi.wcentroid_top_n;
+        ble.wcentroid.exponent = config.wifi.wcentroid_exponent;
+        ble.min_rssi_dbm = config.wifi.min_rssi_dbm;
+        let aps: Vec<BeaconSpec> = site
+            .spec
+            .access_points
+            .iter()
+            .map(|a| BeaconSpec {
+                id: ap_id(&a.id),
+                ..a.clone()
+            })
+            .collect();
+        let front = BleFrontEnd::with_registry(&ble, BeaconRegistry::new(&aps));
+        Some(BleOnlyEngine {
+            kind,
+            wifi: Some(WifiInput {
+                name,
+                fresh: FreshResults::default(),
+                max_age_ns: config.wifi.max_age_ns(),
+                min_rssi_dbm: config.wifi.min_rssi_dbm,
+            }),
+            task: BleTask::with_parts(&ble, front, kind.build(&ble), Default::default()),
+            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            pose: None,
+            init,
+            stats: EngineStats::default(),
+        })
+    }
+}
+
 impl Engine for BleOnlyEngine {
     fn name(&self) -> &'static str {
-        self.kind.name()
+        self.wifi.as_ref().map_or(self.kind.name(), |w| w.name)
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
@@ -52,12 +117,27 @@ impl Engine for BleOnlyEngine {
 
     fn on_ble(&mut self, obs: &BleObservation) {
         self.stats.ble_observations += 1;
-        self.task.on_observation(obs);
+        if self.wifi.is_none() {
+            self.task.on_observation(obs);
+        }
     }
 
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
+    fn on_wifi(&mut self, scan: &WifiScan) {
+        // The BLE engines do not use WiFi: counted and ignored.
         self.stats.count_wifi(scan);
+        let Some(w) = self.wifi.as_mut() else { return };
+        for r in w.fresh.of(scan, w.max_age_ns) {
+            if r.rssi_dbm < w.min_rssi_dbm {
+                continue;
+            }
+            // At the scan's time: the front end's filters run forward in time.
+            self.task.on_observation(&BleObservation {
+                t_ns: scan.t_ns,
+                beacon_id: ap_id(&r.bssid),
+                rssi_dbm: r.rssi_dbm,
+                tx_power_dbm: None,
+            });
+        }
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
@@ -246,5 +326,74 @@ mod tests {
                 assert!(out.track.is_empty() && out.stats.no_fix > 0);
             }
         }
+    }
+
+    /// The walk's adverts of beacon i as WiFi results of BSSID 02:..:0i, one
+    /// scan per second (results 0.2 s old), with the BLE adverts kept too.
+    fn as_wifi(ev: Vec<LogEvent>) -> Vec<LogEvent> {
+        let mut out = Vec::new();
+        let mut pending: Vec<crate::events::WifiResult> = Vec::new();
+        for e in ev {
+            if let LogEvent::Ble(b) = &e
+                && b.t_ns % 1_000_000_000 == 0
+            {
+                let i = &b.beacon_id[b.beacon_id.len() - 2..];
+                pending.push(crate::events::WifiResult {
+                    bssid: format!("02:00:00:00:00:{}", i.to_ascii_lowercase()),
+                    rssi_dbm: b.rssi_dbm,
+                    freq_mhz: 2412,
+                    seen_t_ns: b.t_ns,
+                });
+            }
+            if let LogEvent::Truth(t) = &e {
+                out.push(LogEvent::Wifi(crate::events::WifiScan {
+                    t_ns: t.t_ns + 200_000_000,
+                    results: std::mem::take(&mut pending),
+                }));
+            }
+            out.push(e);
+        }
+        out.sort_by_key(|e| e.t_ns());
+        out
+    }
+
+    #[test]
+    fn wifi_wcentroid_positions_from_access_points_only() {
+        let mut spec = site(&[]).spec.clone();
+        spec.access_points = SQUARE
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| BeaconSpec {
+                id: format!("02:00:00:00:00:{i:02x}"),
+                floor: 0,
+                x_m: x,
+                y_m: y,
+                z_m: 1.2,
+                rssi_1m_dbm: MODEL.rssi_1m_dbm,
+                path_loss_exponent: MODEL.exponent,
+            })
+            .collect();
+        let aps = Arc::new(Site {
+            spec,
+            floors: site(&[]).floors.clone(),
+        });
+        let ev = as_wifi(walk(&SQUARE, None, 20));
+        let out = run("wifi-wcentroid", aps.clone(), ev.clone());
+        let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+        assert!(errs.len() >= 18, "{} fixes", errs.len());
+        let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+        assert!(mean < 12.0, "mean error {mean}");
+        assert_eq!(out.stats.wifi_scans, 20);
+        // the BLE adverts of the same log were counted, not used: a site whose
+        // beacons are the same points gives no WiFi fix without the scans
+        let ble_only: Vec<LogEvent> = ev
+            .into_iter()
+            .filter(|e| !matches!(e, LogEvent::Wifi(_)))
+            .collect();
+        let out = run("wifi-wcentroid", aps, ble_only);
+        assert!(out.track.is_empty() && out.stats.ble_observations > 0);
+        // and the BLE engines ignore the scans
+        let out = run("wcentroid", site(&[]), as_wifi(walk(&SQUARE, None, 5)));
+        assert!(out.track.is_empty() && out.stats.wifi_scans == 5);
     }
 }

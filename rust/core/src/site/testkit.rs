@@ -62,6 +62,7 @@ pub(crate) fn beacon_site(
                 path_loss_exponent: model.exponent,
             })
             .collect(),
+        access_points: vec![],
         georef: None,
     };
     Arc::new(Site { spec, floors: maps })

@@ -1,0 +1,201 @@
+//! WiFi access points as one more kind of radio transmitter: BSSIDs and
+//! bands, how the BSSIDs of one physical AP are grouped, which results of a
+//! scan are new, calibration of APs from survey walks (the BLE calibration's
+//! fit and acceptance tests, [`calibrate`]) and the config of all this.
+//!
+//! Site files list APs in `access_points` (one entry per BSSID, the fields
+//! of a beacon; docs/formats.md). Android reports the BSSIDs of one AP as
+//! separate results: one per SSID it serves (on the ILC mall APs the first
+//! octet differs: `06:74:9c:2b:13:8f`, `0a:74:9c:2b:13:8f`, ...) and per
+//! radio (2.4 / 5 GHz: the last nibble differs, `..:62:7a` at 2452 MHz,
+//! `..:62:7b` at 5785 MHz). [`BssidGrouping`] says which of them share one
+//! position and path-loss model.
+
+pub mod calibrate;
+pub mod config;
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::events::{WifiResult, WifiScan};
+
+pub use config::WifiConfig;
+
+/// Whether `s` is a canonical BSSID: lower-case `aa:bb:cc:dd:ee:ff`.
+pub fn is_bssid(s: &str) -> bool {
+    s.len() == 17
+        && s.split(':').count() == 6
+        && s.split(':').all(|b| {
+            b.len() == 2
+                && b.bytes()
+                    .all(|c| c.is_ascii_digit() || (b'a'..=b'f').contains(&c))
+        })
+}
+
+/// A WiFi band from a channel centre frequency.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Band {
+    /// 2400-2500 MHz.
+    Ghz2_4,
+    /// 4900-5900 MHz.
+    Ghz5,
+    /// 5925-7125 MHz.
+    Ghz6,
+    Other,
+}
+
+impl Band {
+    pub fn of(freq_mhz: u32) -> Band {
+        match freq_mhz {
+            2400..=2500 => Band::Ghz2_4,
+            4900..=5900 => Band::Ghz5,
+            5925..=7125 => Band::Ghz6,
+            _ => Band::Other,
+        }
+    }
+
+    /// Short name (`2.4`, `5`, `6`, `other`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Band::Ghz2_4 => "2.4",
+            Band::Ghz5 => "5",
+            Band::Ghz6 => "6",
+            Band::Other => "other",
+        }
+    }
+}
+
+/// Which BSSIDs share one position and path-loss model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BssidGrouping {
+    /// Every BSSID on its own.
+    #[default]
+    Bssid,
+    /// BSSIDs equal but for the first octet and the last nibble (the SSIDs
+    /// and radios of one AP) and on the same band: one model per AP and band.
+    ApBand,
+    /// The same across bands: one position and one model per AP.
+    Ap,
+}
+
+impl BssidGrouping {
+    /// The transmitter a result belongs to: the BSSID itself, or
+    /// `ap:<octets 2-5>:<high nibble of octet 6>x[/<band>]`.
+    pub fn key(self, bssid: &str, freq_mhz: u32) -> String {
+        match self {
+            BssidGrouping::Bssid => bssid.to_string(),
+            BssidGrouping::ApBand | BssidGrouping::Ap => {
+                let core = bssid.get(3..16).unwrap_or(bssid);
+                let mut k = format!("ap:{core}x");
+                if self == BssidGrouping::ApBand {
+                    k.push('/');
+                    k.push_str(Band::of(freq_mhz).name());
+                }
+                k
+            }
+        }
+    }
+}
+
+/// Picks the results of scans that are new measurements: Android (and ILC's
+/// app) repeat a cached result in later scans with its old last-seen time,
+/// so a result counts only when it was seen more than `repeat_tolerance_ns`
+/// after the last counted result of its BSSID, and only when it is at most
+/// `max_age_ns` older than its scan.
+#[derive(Debug, Clone, Default)]
+pub struct FreshResults {
+    last_seen_ns: BTreeMap<String, i64>,
+}
+
+/// Last-seen times of one cached result differ by up to 1 ms between scans
+/// on ILC (e.g. 1574559665384 and ...385).
+pub const REPEAT_TOLERANCE_NS: i64 = 10_000_000;
+
+impl FreshResults {
+    /// The new results of `scan`, in scan order.
+    pub fn of<'a>(&mut self, scan: &'a WifiScan, max_age_ns: i64) -> Vec<&'a WifiResult> {
+        let mut out = Vec::new();
+        for r in &scan.results {
+            if scan.t_ns.saturating_sub(r.seen_t_ns) > max_age_ns || !r.rssi_dbm.is_finite() {
+                continue;
+            }
+            let last = self.last_seen_ns.get(&r.bssid).copied();
+            if last.is_some_and(|l| r.seen_t_ns <= l.saturating_add(REPEAT_TOLERANCE_NS)) {
+                continue;
+            }
+            self.last_seen_ns.insert(r.bssid.clone(), r.seen_t_ns);
+            out.push(r);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn res(b: &str, seen: i64) -> WifiResult {
+        WifiResult {
+            bssid: b.into(),
+            rssi_dbm: -60.0,
+            freq_mhz: 2412,
+            seen_t_ns: seen,
+        }
+    }
+
+    #[test]
+    fn bssids_bands_and_groups() {
+        assert!(is_bssid("0a:74:9c:2b:62:7a"));
+        assert!(!is_bssid("0A:74:9c:2b:62:7a") && !is_bssid("0a:74:9c:2b:62") && !is_bssid(""));
+        assert_eq!(Band::of(2452), Band::Ghz2_4);
+        assert_eq!(Band::of(5785), Band::Ghz5);
+        assert_eq!(Band::of(900), Band::Other);
+        let g = BssidGrouping::ApBand;
+        assert_eq!(g.key("0a:74:9c:2b:62:7a", 2452), "ap:74:9c:2b:62:7x/2.4");
+        assert_eq!(g.key("12:74:9c:2b:62:7b", 5785), "ap:74:9c:2b:62:7x/5");
+        assert_eq!(
+            BssidGrouping::Ap.key("12:74:9c:2b:62:7b", 5785),
+            BssidGrouping::Ap.key("0a:74:9c:2b:62:7a", 2452)
+        );
+        assert_eq!(
+            BssidGrouping::Bssid.key("0a:74:9c:2b:62:7a", 2452),
+            "0a:74:9c:2b:62:7a"
+        );
+    }
+
+    #[test]
+    fn cached_and_old_results_are_not_new() {
+        let mut f = FreshResults::default();
+        let s1 = WifiScan {
+            t_ns: 10_000_000_000,
+            results: vec![
+                res("00:00:00:00:00:01", 9_000_000_000),
+                res("00:00:00:00:00:02", 1),
+            ],
+        };
+        // max age 5 s: the second result is 10 s old
+        assert_eq!(f.of(&s1, 5_000_000_000).len(), 1);
+        // the same cached result again (1 ms later), and a new one
+        let s2 = WifiScan {
+            t_ns: 12_000_000_000,
+            results: vec![
+                res("00:00:00:00:00:01", 9_001_000_000),
+                res("00:00:00:00:00:03", 11_000_000_000),
+            ],
+        };
+        let got: Vec<&str> = f
+            .of(&s2, 5_000_000_000)
+            .iter()
+            .map(|r| r.bssid.as_str())
+            .collect();
+        assert_eq!(got, vec!["00:00:00:00:00:03"]);
+        let s3 = WifiScan {
+            t_ns: 14_000_000_000,
+            results: vec![res("00:00:00:00:00:01", 13_000_000_000)],
+        };
+        assert_eq!(f.of(&s3, 5_000_000_000).len(), 1);
+    }
+}

@@ -1,5 +1,7 @@
 //! `fpbp eval --radios ble,wifi`: which radios' events an engine is given,
-//! so the gain of each radio is measured on the same logs.
+//! so the gain of each radio is measured on the same logs. `wifi-throttled`
+//! keeps WiFi thinned as Android 9+ throttles a foreground app's scans: a
+//! scan is kept only when fewer than 4 were kept in the 2 minutes before it.
 
 use fpbp_core::events::LogEvent;
 
@@ -9,12 +11,31 @@ use fpbp_core::events::LogEvent;
 pub enum Radio {
     Ble,
     Wifi,
+    /// WiFi with Android's foreground throttle applied to the log.
+    WifiThrottled,
 }
+
+/// Android 9+ foreground throttle: scans per window.
+pub const THROTTLE_MAX_SCANS: usize = 4;
+pub const THROTTLE_WINDOW_NS: i64 = 120_000_000_000;
 
 /// Drops the events of the radios not in `keep` (sensors, GNSS and truth stay).
 pub fn keep_radios(events: &mut Vec<LogEvent>, keep: &[Radio]) {
+    let throttled = keep.contains(&Radio::WifiThrottled) && !keep.contains(&Radio::Wifi);
+    let mut kept: Vec<i64> = Vec::new();
     events.retain(|e| match e {
         LogEvent::Ble(_) => keep.contains(&Radio::Ble),
+        LogEvent::Wifi(w) if throttled => {
+            let recent = kept
+                .iter()
+                .filter(|t| w.t_ns - **t < THROTTLE_WINDOW_NS)
+                .count();
+            let ok = recent < THROTTLE_MAX_SCANS;
+            if ok {
+                kept.push(w.t_ns);
+            }
+            ok
+        }
         LogEvent::Wifi(_) => keep.contains(&Radio::Wifi),
         _ => true,
     });
@@ -54,5 +75,21 @@ mod tests {
         assert_eq!(kinds(&[Radio::Ble]), vec![1, 3]);
         assert_eq!(kinds(&[Radio::Wifi]), vec![2, 3]);
         assert_eq!(kinds(&[]), vec![3]);
+    }
+
+    #[test]
+    fn throttled_wifi_keeps_at_most_4_scans_in_2_minutes() {
+        // a scan every 2 s for 5 minutes
+        let mut v: Vec<LogEvent> = (0..150)
+            .map(|k| {
+                LogEvent::Wifi(WifiScan {
+                    t_ns: k * 2_000_000_000,
+                    results: vec![],
+                })
+            })
+            .collect();
+        keep_radios(&mut v, &[Radio::WifiThrottled]);
+        let t: Vec<i64> = v.iter().map(|e| e.t_ns() / 1_000_000_000).collect();
+        assert_eq!(t, vec![0, 2, 4, 6, 120, 122, 124, 126, 240, 242, 244, 246]);
     }
 }

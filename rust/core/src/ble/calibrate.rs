@@ -16,7 +16,7 @@
 //!    of RSSI against log10(range), n clamped to [min_exponent, max_exponent];
 //!    the cost is the Huber loss of the residuals.
 //! 5. Rejections, in this order: fitted n at a bound (no real distance
-//!    dependence), correlation of RSSI with log10(range) above
+//!    dependence), R0 >= 0 dBm (no site file takes it), correlation of RSSI with log10(range) above
 //!    `max_correlation`, robust residual spread (1.4826 MAD) above
 //!    `max_residual_dbm`, spread of per-path mean residuals above
 //!    `max_path_bias_dbm`, per-path excess residual above `max_path_excess_dbm`
@@ -557,6 +557,9 @@ pub fn calibrate_with(
             (fit.n - cc.min_exponent).abs() < 1e-9 || (fit.n - cc.max_exponent).abs() < 1e-9;
         rep.rejected = if at_bound {
             Some(format!("path-loss exponent at its bound ({:.2})", fit.n))
+        } else if fit.r0 >= 0.0 {
+            // site files need R0 < 0: a steep fit far from where it was heard
+            Some(format!("RSSI at 1 m is not negative ({:.1} dBm)", fit.r0))
         } else if corr > cc.max_correlation {
             Some(format!(
                 "RSSI barely depends on range (r = {corr:.2} > {})",

@@ -33,7 +33,7 @@ impl Default for WifiConfig {
             grouping: BssidGrouping::Bssid,
             min_rssi_dbm: -100.0,
             calibration: CalibrationConfig::default(),
-            wcentroid_top_n: 4,
+            wcentroid_top_n: 6,
             wcentroid_exponent: 1.0,
         }
     }

@@ -6,13 +6,11 @@
 //! Waypoints are metres in the floor image frame (bottom-left origin, y up),
 //! which is the MCS of a site built from that image, so they pass through.
 
-use fpbp_core::events::{
-    BleObservation, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult,
-};
+use fpbp_core::events::{BleObservation, LogEvent, SensorData, SensorEvent, TruthPoint};
 
 use crate::line::{
     LineOutcome, bssid, f64_field, freq_mhz_field, i64_field, ibeacon_id, mac_id, str_field,
-    valid_tx_power,
+    valid_tx_power, wifi_row,
 };
 
 /// Line parser of ILC traces.
@@ -107,15 +105,7 @@ impl IlcParser {
         }
         let t_ns = self.to_ns(t_ms)?;
         let seen_t_ns = self.to_ns(seen_ms)?;
-        Ok(LineOutcome::WifiRow {
-            t_ns,
-            result: WifiResult {
-                bssid,
-                rssi_dbm,
-                freq_mhz,
-                seen_t_ns,
-            },
-        })
+        Ok(wifi_row(t_ns, bssid, rssi_dbm, freq_mhz, seen_t_ns))
     }
 
     fn parse_row(&mut self, line: &str) -> Result<LineOutcome, String> {

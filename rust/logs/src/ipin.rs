@@ -14,15 +14,13 @@
 //! `getOrientation` with pitch and azimuth negated (yaw counter-clockwise
 //! from north). Checked on every training log (see the dataset tests).
 
-use fpbp_core::events::{
-    BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint, WifiResult,
-};
+use fpbp_core::events::{BleObservation, GnssFix, LogEvent, SensorData, SensorEvent, TruthPoint};
 use fpbp_core::geo::mcs_from_wgs84;
 use fpbp_core::site::GeoRef;
 
 use crate::line::{
     LineOutcome, bssid, f64_field, freq_mhz_field, i64_field, ibeacon_id, mac_id, seconds_to_ns,
-    str_field,
+    str_field, wifi_row,
 };
 
 /// Line parser of IPIN GetSensorData logfiles.
@@ -208,15 +206,7 @@ fn parse_wifi(line: &str) -> Result<LineOutcome, String> {
     let bssid = bssid(f[n - 3].trim()).map_err(|m| format!("field {} (bssid): {m}", n - 2))?;
     let freq_mhz = freq_mhz_field(&f, n - 2)?;
     let rssi_dbm = f64_field(&f, n - 1, "rss_dbm")?;
-    Ok(LineOutcome::WifiRow {
-        t_ns,
-        result: WifiResult {
-            bssid,
-            rssi_dbm,
-            freq_mhz,
-            seen_t_ns: t_ns,
-        },
-    })
+    Ok(wifi_row(t_ns, bssid, rssi_dbm, freq_mhz, t_ns))
 }
 
 fn u16_field(f: &[&str], i: usize, name: &str) -> Result<u16, String> {

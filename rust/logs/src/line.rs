@@ -94,6 +94,25 @@ pub fn bssid(mac: &str) -> Result<String, String> {
     }
 }
 
+/// One WiFi row's outcome.
+pub fn wifi_row(
+    t_ns: i64,
+    bssid: String,
+    rssi_dbm: f64,
+    freq_mhz: u32,
+    seen_t_ns: i64,
+) -> LineOutcome {
+    LineOutcome::WifiRow {
+        t_ns,
+        result: WifiResult {
+            bssid,
+            rssi_dbm,
+            freq_mhz,
+            seen_t_ns,
+        },
+    }
+}
+
 /// Parses field `i` as a WiFi channel frequency in MHz (1..=100000).
 pub fn freq_mhz_field(fields: &[&str], i: usize) -> Result<u32, String> {
     let v = i64_field(fields, i, "frequency_mhz")?;

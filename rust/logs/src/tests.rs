@@ -238,6 +238,15 @@ fn native_wifi_lines_are_checked_before_allocating() {
     assert!(w.write(&upper).is_err());
 }
 
+fn wifi_scans(ev: &[LogEvent]) -> Vec<&WifiScan> {
+    ev.iter()
+        .filter_map(|e| match e {
+            LogEvent::Wifi(w) => Some(w),
+            _ => None,
+        })
+        .collect()
+}
+
 #[test]
 fn ilc_wifi_rows_become_scans_with_their_ages() {
     // Generated in the ILC layout: two scans, the second with a result 20 s
@@ -253,13 +262,7 @@ fn ilc_wifi_rows_become_scans_with_their_ages() {
         1600000004100\tTYPE_WIFI\told\t12:74:9c:2b:13:8f\t-80\t5180\t1599999984100\n\
         #\tendTime:1600000004200\n";
     let (ev, rep) = read_str(text, &ReadOptions::default()).unwrap();
-    let scans: Vec<&WifiScan> = ev
-        .iter()
-        .filter_map(|e| match e {
-            LogEvent::Wifi(w) => Some(w),
-            _ => None,
-        })
-        .collect();
+    let scans = wifi_scans(&ev);
     assert_eq!(ev.len(), 4);
     assert_eq!(scans.len(), 2);
     assert_eq!(scans[0].t_ns, 2_000_000_000);
@@ -304,13 +307,7 @@ fn ipin_wifi_rows_are_grouped_by_app_timestamp() {
         WIFI;4.6;65098.1;SSID2023_0001;20:23:00:00:00:01;2437;NaN\n\
         WIFI;4.6;65098.1;SSID2023_0001;20:23:00:00:00:01;2437;-62\n";
     let (ev, rep) = read_str(text, &ReadOptions::default()).unwrap();
-    let scans: Vec<&WifiScan> = ev
-        .iter()
-        .filter_map(|e| match e {
-            LogEvent::Wifi(w) => Some(w),
-            _ => None,
-        })
-        .collect();
+    let scans = wifi_scans(&ev);
     assert_eq!(scans.len(), 2);
     assert_eq!(scans[0].t_ns, 651_000_000);
     assert_eq!(scans[0].results.len(), 2);

@@ -7,28 +7,8 @@ use std::path::{Path, PathBuf};
 use fpbp_core::site::GeoRef;
 use fpbp_logs::{LogFormat, ReadOptions, ReadReport, open_log};
 
-fn datasets() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/datasets");
-    if d.is_dir() {
-        Some(d)
-    } else {
-        println!(
-            "skipped: ../shared/datasets not found (looked in {})",
-            d.display()
-        );
-        None
-    }
-}
-
-fn gz_files(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "gz"))
-        .collect();
-    v.sort();
-    v
-}
+mod common;
+use common::{datasets, gz_files};
 
 fn read(path: &Path, opts: &ReadOptions) -> ReadReport {
     let mut r = open_log(path, opts).unwrap_or_else(|e| panic!("{e}"));

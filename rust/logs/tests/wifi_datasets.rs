@@ -5,33 +5,13 @@
 
 use std::collections::BTreeMap;
 use std::io::BufRead;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use fpbp_core::events::{LogEvent, WifiScan};
 use fpbp_logs::{ReadOptions, decompressing, open_log};
 
-fn datasets() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/datasets");
-    if d.is_dir() {
-        Some(d)
-    } else {
-        println!(
-            "skipped: ../shared/datasets not found (looked in {})",
-            d.display()
-        );
-        None
-    }
-}
-
-fn gz_files(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| p.extension().is_some_and(|x| x == "gz"))
-        .collect();
-    v.sort();
-    v
-}
+mod common;
+use common::{datasets, gz_files};
 
 fn raw_lines(path: &Path) -> Vec<String> {
     let f = std::fs::File::open(path).unwrap();

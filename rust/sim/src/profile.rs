@@ -188,7 +188,7 @@ impl Default for WalkConfig {
     }
 }
 
-fn positive(field: &str, v: f64) -> Result<()> {
+pub(crate) fn positive(field: &str, v: f64) -> Result<()> {
     if v.is_finite() && v > 0.0 {
         Ok(())
     } else {
@@ -196,7 +196,7 @@ fn positive(field: &str, v: f64) -> Result<()> {
     }
 }
 
-fn non_negative(field: &str, v: f64) -> Result<()> {
+pub(crate) fn non_negative(field: &str, v: f64) -> Result<()> {
     if v.is_finite() && v >= 0.0 {
         Ok(())
     } else {
@@ -204,7 +204,7 @@ fn non_negative(field: &str, v: f64) -> Result<()> {
     }
 }
 
-fn probability(field: &str, v: f64) -> Result<()> {
+pub(crate) fn probability(field: &str, v: f64) -> Result<()> {
     if (0.0..=1.0).contains(&v) {
         Ok(())
     } else {

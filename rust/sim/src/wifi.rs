@@ -19,7 +19,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::imu::to_ns;
 use crate::noise::{chance, normal, uniform};
-use crate::profile::BleConfig;
+use crate::profile::{BleConfig, non_negative, positive, probability};
 use crate::walk::Trajectory;
 use fpbp_core::{Error, Result};
 
@@ -90,33 +90,9 @@ impl Default for WifiSimConfig {
 
 impl WifiSimConfig {
     pub fn validate(&self) -> Result<()> {
-        let pos = |name: &str, v: f64| {
-            if v.is_finite() && v > 0.0 {
-                Ok(())
-            } else {
-                Err(Error::config(
-                    format!("wifi.{name}"),
-                    format!("must be > 0, got {v}"),
-                ))
-            }
-        };
-        let non_neg = |name: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 {
-                Ok(())
-            } else {
-                Err(Error::config(
-                    format!("wifi.{name}"),
-                    format!("must be >= 0, got {v}"),
-                ))
-            }
-        };
-        let prob = |name: &str, v: f64| {
-            if (0.0..=1.0).contains(&v) {
-                Ok(())
-            } else {
-                Err(Error::config(format!("wifi.{name}"), "must be in [0, 1]"))
-            }
-        };
+        let pos = |name: &str, v: f64| positive(&format!("wifi.{name}"), v);
+        let non_neg = |name: &str, v: f64| non_negative(&format!("wifi.{name}"), v);
+        let prob = |name: &str, v: f64| probability(&format!("wifi.{name}"), v);
         if !(self.layout_spacing_m.is_finite() && self.layout_spacing_m >= 1.0) {
             return Err(Error::config("wifi.layout_spacing_m", "must be >= 1"));
         }

@@ -242,23 +242,25 @@ mod tests {
         assert!(h.rejected.as_deref().unwrap().contains("moving"), "{h:?}");
         // cached repeats are not counted twice
         assert!(cal.used < cal.results, "{} of {}", cal.used, cal.results);
-        let site = crate::site::testkit::beacon_site(
-            "w",
-            vec![crate::site::testkit::open_map(50, 30)],
-            &[],
-            m24_model(),
-        );
+        let site = open_site();
         let out = apply_aps_to_site(&site.spec, &cal, 1.2);
         let ids: Vec<&str> = out.access_points.iter().map(|a| a.id.as_str()).collect();
         assert_eq!(ids, vec![AP_B, AP_24, AP_5]);
         out.validate("w.json").unwrap();
     }
 
-    fn m24_model() -> PathLoss {
-        PathLoss {
+    /// The survey's 50 x 30 m floor without transmitters.
+    fn open_site() -> std::sync::Arc<crate::site::Site> {
+        let model = PathLoss {
             rssi_1m_dbm: -38.0,
             exponent: 2.4,
-        }
+        };
+        crate::site::testkit::beacon_site(
+            "w",
+            vec![crate::site::testkit::open_map(50, 30)],
+            &[],
+            model,
+        )
     }
 
     #[test]
@@ -271,12 +273,7 @@ mod tests {
         let members: Vec<&String> = cal.members[&key].iter().collect();
         assert_eq!(members, vec![AP_24, AP_5]);
         let r = cal.reports.iter().find(|r| r.id == key).unwrap();
-        let site = crate::site::testkit::beacon_site(
-            "w",
-            vec![crate::site::testkit::open_map(50, 30)],
-            &[],
-            m24_model(),
-        );
+        let site = open_site();
         let out = apply_aps_to_site(&site.spec, &cal, 1.2);
         if r.accepted() {
             let a: Vec<_> = out

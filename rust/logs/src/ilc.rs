@@ -73,7 +73,7 @@ impl IlcParser {
 
     /// `(t_ms - origin_ms) * 1e6`, the origin set by the first row when the
     /// header gave none.
-    fn to_ns(&mut self, t_ms: i64) -> Result<i64, String> {
+    fn t_ns_of(&mut self, t_ms: i64) -> Result<i64, String> {
         let origin = *self.origin_ms.get_or_insert(t_ms);
         t_ms.checked_sub(origin)
             .and_then(|d| d.checked_mul(1_000_000))
@@ -103,8 +103,8 @@ impl IlcParser {
                 "field {n} (last_seen_ms): {seen_ms} is after the row's time {t_ms}"
             ));
         }
-        let t_ns = self.to_ns(t_ms)?;
-        let seen_t_ns = self.to_ns(seen_ms)?;
+        let t_ns = self.t_ns_of(t_ms)?;
+        let seen_t_ns = self.t_ns_of(seen_ms)?;
         Ok(wifi_row(t_ns, bssid, rssi_dbm, freq_mhz, seen_t_ns))
     }
 
@@ -115,7 +115,7 @@ impl IlcParser {
         if !kind.starts_with("TYPE_") {
             return Err(format!("field 2: `{kind}` is not a TYPE_ record"));
         }
-        let t_ns = self.to_ns(t_ms)?;
+        let t_ns = self.t_ns_of(t_ms)?;
         let need = |n: usize| -> Result<(), String> {
             if f.len() >= n {
                 Ok(())
@@ -228,6 +228,7 @@ pub fn looks_like(line: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fpbp_core::events::WifiResult;
 
     fn ev(p: &mut IlcParser, l: &str) -> LogEvent {
         match p.parse_line(l) {

@@ -259,6 +259,7 @@ pub fn looks_like(line: &str) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fpbp_core::events::WifiResult;
 
     fn ev(p: &mut IpinParser, l: &str) -> LogEvent {
         match p.parse_line(l) {

@@ -2,7 +2,7 @@
 //! counts against ../shared/datasets/README.md. Skips with a clear message when
 //! the datasets are not there.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use fpbp_core::site::GeoRef;
 use fpbp_logs::{LogFormat, ReadOptions, ReadReport, open_log};

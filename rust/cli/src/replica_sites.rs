@@ -219,17 +219,13 @@ pub fn fpbp() -> anyhow::Result<Replica> {
 }
 
 /// The centre line of the proximity-PF walking course: 70 m with six turns
-/// (Momose et al., Sec. IV-A, Fig. 6). MCS metres.
-pub const PROX_PF_COURSE: [[f64; 2]; 8] = [
-    [3.0, 15.0],
-    [3.0, 3.0],
-    [14.0, 3.0],
-    [14.0, 12.0],
-    [25.0, 12.0],
-    [25.0, 3.0],
-    [36.0, 3.0],
-    [36.0, 10.0],
-];
+/// (Momose et al., Sec. IV-A, Fig. 6), MCS metres; the replica walk's route
+/// (`fpbp_sim::replica`, profile `replica-prox-pf-1`) is the one source.
+pub fn prox_pf_course() -> Vec<[f64; 2]> {
+    fpbp_sim::replica::replica_profile("replica-prox-pf-1")
+        .map(|p| p.walk.waypoints_m)
+        .unwrap_or_default()
+}
 
 /// Point at arc length `s` along a polyline.
 fn along(poly: &[[f64; 2]], mut s: f64) -> (Vec2, Vec2) {
@@ -258,8 +254,12 @@ fn along(poly: &[[f64; 2]], mut s: f64) -> (Vec2, Vec2) {
 pub fn prox_pf() -> anyhow::Result<Replica> {
     let (w, h, ppm, wall) = (40.0, 18.0, 10.0, 0.3);
     let half = 1.2;
+    let course = prox_pf_course();
+    if course.len() < 2 {
+        bail!("the proximity-PF course has no route");
+    }
     let mut openings = Vec::new();
-    for s in PROX_PF_COURSE.windows(2) {
+    for s in course.windows(2) {
         let (x0, x1) = (s[0][0].min(s[1][0]), s[0][0].max(s[1][0]));
         let (y0, y1) = (s[0][1].min(s[1][1]), s[0][1].max(s[1][1]));
         openings.push(block(x0 - half, y0 - half, x1 + half, y1 + half));
@@ -287,7 +287,7 @@ pub fn prox_pf() -> anyhow::Result<Replica> {
     // 9 beacons every 70 / 8 m along the course, 0.9 m to its left side
     let mut beacons = Vec::new();
     for k in 0..9 {
-        let (p, u) = along(&PROX_PF_COURSE, 70.0 * k as f64 / 8.0);
+        let (p, u) = along(&course, 70.0 * k as f64 / 8.0);
         let q = p + Vec2::new(-u.y, u.x) * 0.9;
         let (x, y) = nudge(&img, ppm, q.x, q.y)?;
         beacons.push(BeaconDraft {

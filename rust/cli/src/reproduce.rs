@@ -10,7 +10,7 @@
 //! pooled over the paper's walks within a seed). Coverage is the share of
 //! truth points with a pose; figures are over the points with one.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, bail};
@@ -601,16 +601,6 @@ fn print_result(r: &PaperResult) {
     }
 }
 
-/// A default path relative to the working directory, else relative to the
-/// repository the binary was built from.
-fn resolve(p: &Path) -> PathBuf {
-    if p.is_absolute() || p.exists() {
-        return p.to_path_buf();
-    }
-    let q = Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(p);
-    if q.exists() { q } else { p.to_path_buf() }
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     if args.seeds == 0 || args.seeds > 100 {
         bail!("--seeds must be in 1..=100, got {}", args.seeds);
@@ -626,7 +616,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         vec![args.paper.as_str()]
     };
-    let maps = resolve(&args.maps);
+    let maps = crate::demo::resolve(&args.maps);
     let started = std::time::Instant::now();
     for name in papers {
         let spec = paper_spec(name)?;

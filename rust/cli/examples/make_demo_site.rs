@@ -9,6 +9,7 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
+use fpbp_cli::plan_draw::{Drawing, Stroke, is_walkable, seg};
 use fpbp_core::Vec2;
 use fpbp_core::site::{BeaconSpec, FloorSpec, Legend, SiteSpec};
 
@@ -16,59 +17,6 @@ const W_M: f64 = 64.0;
 const H_M: f64 = 44.0;
 const R: f64 = 10.0;
 const WALL_M: f64 = 0.3;
-
-/// A thick stroke: a segment or a circular arc (angles in radians, CCW from
-/// a0 to a1). Walls have round caps; doors flat ends.
-enum Stroke {
-    Seg {
-        a: Vec2,
-        b: Vec2,
-    },
-    Arc {
-        c: Vec2,
-        radius: f64,
-        a0: f64,
-        a1: f64,
-    },
-}
-
-impl Stroke {
-    fn contains(&self, p: Vec2, half_t: f64, round_caps: bool) -> bool {
-        match *self {
-            Stroke::Seg { a, b } => {
-                let d = b - a;
-                let len2 = d.norm_squared();
-                let t = (p - a).dot(&d) / len2;
-                if round_caps {
-                    let q = a + d * t.clamp(0.0, 1.0);
-                    (p - q).norm() <= half_t
-                } else {
-                    (0.0..=1.0).contains(&t) && (p - (a + d * t)).norm() <= half_t
-                }
-            }
-            Stroke::Arc { c, radius, a0, a1 } => {
-                let v = p - c;
-                let mut ang = v.y.atan2(v.x);
-                while ang < a0 {
-                    ang += std::f64::consts::TAU;
-                }
-                let on_arc = ang <= a1 && (v.norm() - radius).abs() <= half_t;
-                if on_arc || !round_caps {
-                    return on_arc;
-                }
-                let end = |a: f64| c + Vec2::new(a.cos(), a.sin()) * radius;
-                (p - end(a0)).norm() <= half_t || (p - end(a1)).norm() <= half_t
-            }
-        }
-    }
-}
-
-fn seg(ax: f64, ay: f64, bx: f64, by: f64) -> Stroke {
-    Stroke::Seg {
-        a: Vec2::new(ax, ay),
-        b: Vec2::new(bx, by),
-    }
-}
 
 fn walls() -> Vec<Stroke> {
     let e = WALL_M / 2.0;
@@ -151,30 +99,24 @@ fn main() -> anyhow::Result<()> {
     );
     std::fs::create_dir_all(&out).with_context(|| format!("cannot create {}", out.display()))?;
     let legend = Legend::default();
-    let (w, h) = ((W_M * R) as u32, (H_M * R) as u32);
-    let walls = walls();
-    let doors = doors();
-    let half_t = WALL_M / 2.0;
-    let img = image::RgbImage::from_fn(w, h, |i, j| {
-        // Pixel centre in the MCS (eq. 23).
-        let p = Vec2::new((i as f64 + 0.5) / R, (h as f64 - j as f64 - 0.5) / R);
-        if doors.iter().any(|d| d.contains(p, half_t + 1e-9, false)) {
-            image::Rgb(legend.door)
-        } else if walls.iter().any(|s| s.contains(p, half_t, true)) {
-            image::Rgb(legend.wall)
-        } else {
-            image::Rgb(legend.walkable)
-        }
-    });
+    let drawing = Drawing {
+        width_m: W_M,
+        height_m: H_M,
+        pixels_per_meter: R,
+        wall_m: WALL_M,
+        walls: walls(),
+        doors: doors(),
+        blocks: Vec::new(),
+        openings: Vec::new(),
+    };
+    let img = drawing.render(&legend);
+    let (w, h) = img.dimensions();
     let plan_path = out.join("plan.png");
     img.save(&plan_path)
         .with_context(|| format!("cannot write {}", plan_path.display()))?;
 
     // Beacons on a 7 m lattice, nudged off any obstacle pixel.
-    let is_free = |x: f64, y: f64| {
-        let (i, j) = ((x * R).floor() as u32, (h as f64 - y * R).floor() as u32);
-        i < w && j < h && img.get_pixel(i, j).0 == legend.walkable
-    };
+    let is_free = |x: f64, y: f64| is_walkable(&img, &legend, R, x, y);
     let mut beacons = Vec::new();
     for jy in 0..6 {
         for ix in 0..9 {

@@ -59,7 +59,7 @@ struct DemoEngine {
 
 /// A default path relative to the working directory, else relative to the
 /// repository the binary was built from (so the demo runs from any folder).
-fn resolve(p: &Path) -> PathBuf {
+pub(crate) fn resolve(p: &Path) -> PathBuf {
     if p.is_absolute() || p.exists() {
         return p.to_path_buf();
     }

@@ -17,6 +17,7 @@ mod map_check;
 mod radios;
 mod realism;
 mod replay;
+mod reproduce;
 mod simulate;
 
 use clap::{Parser, Subcommand};
@@ -54,6 +55,8 @@ enum Command {
     },
     /// The main job: every engine on the demo site and its shipped logs.
     Demo(demo::Args),
+    /// The five papers on simulated replicas of their testbeds: ours beside the paper's figures.
+    Reproduce(reproduce::Args),
     /// Fingerprint databases for robust-ekf (walked survey logs).
     Fingerprint {
         #[command(subcommand)]
@@ -81,6 +84,7 @@ fn main() {
         Command::Calibrate(a) => calibrate::run(a),
         Command::Import { command } => import::run(command),
         Command::Demo(a) => demo::run(a),
+        Command::Reproduce(a) => reproduce::run(a),
         Command::Fingerprint { command } => fingerprint::run(command),
     };
     if let Err(e) = result {

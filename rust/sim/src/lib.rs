@@ -15,6 +15,7 @@ pub mod imu;
 pub mod noise;
 pub mod plan;
 pub mod profile;
+pub mod replica;
 pub mod stats;
 pub mod walk;
 pub mod wifi;

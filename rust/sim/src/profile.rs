@@ -49,8 +49,9 @@ pub const PROFILE_NAMES: &[&str] = &[
 impl SimProfile {
     /// A named profile: `default` (phone held in front; vertical p-p like
     /// ILC's, BLE repeat like IPIN's), `swinging` (phone in a swinging hand), `ilc-like`
-    /// (closer to ILC's phone and walkers), `ipin-like` (closer to IPIN's).
-    /// Figures behind them: docs/sim.md.
+    /// (closer to ILC's phone and walkers), `ipin-like` (closer to IPIN's),
+    /// and the replica walks `replica-<paper>-<n>` ([`crate::replica`]).
+    /// Figures behind them: docs/sim.md, docs/reproduction.md.
     pub fn named(name: &str) -> Result<SimProfile> {
         let mut p = SimProfile::default();
         match name {
@@ -85,11 +86,15 @@ impl SimProfile {
                 })
             }
             other => {
+                if let Some(r) = crate::replica::replica_profile(other) {
+                    return Ok(r);
+                }
                 return Err(Error::config(
                     "profile",
                     format!(
-                        "unknown simulation profile `{other}` (known: {})",
-                        PROFILE_NAMES.join(", ")
+                        "unknown simulation profile `{other}` (known: {}, {})",
+                        PROFILE_NAMES.join(", "),
+                        crate::replica::REPLICA_PROFILE_NAMES.join(", ")
                     ),
                 ));
             }
@@ -108,6 +113,9 @@ impl SimProfile {
         self.ble.validate()
     }
 }
+
+/// Most waypoints of a fixed route.
+pub const MAX_WAYPOINTS: usize = 1000;
 
 /// How the phone is carried.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -161,6 +169,14 @@ pub struct WalkConfig {
     pub yaw_time_constant_s: f64,
     /// Height of the phone above the floor, m. Default 1.2.
     pub phone_height_m: f64,
+    /// A fixed route (MCS metres): when not empty the walk starts at the
+    /// first waypoint and visits the others in order, then starts over at
+    /// the first, instead of drawing random goals (the replica testbeds'
+    /// walking courses, docs/reproduction.md). Each waypoint is snapped to
+    /// the nearest cell the walker may stand on, at most 1 m away. Default
+    /// empty (random goals).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub waypoints_m: Vec<[f64; 2]>,
 }
 
 impl Default for WalkConfig {
@@ -184,6 +200,7 @@ impl Default for WalkConfig {
             max_turn_rate_rad_s: 3.0,
             yaw_time_constant_s: 0.15,
             phone_height_m: 1.2,
+            waypoints_m: Vec::new(),
         }
     }
 }
@@ -251,7 +268,25 @@ impl WalkConfig {
         }
         positive("walk.max_turn_rate_rad_s", self.max_turn_rate_rad_s)?;
         non_negative("walk.yaw_time_constant_s", self.yaw_time_constant_s)?;
-        non_negative("walk.phone_height_m", self.phone_height_m)
+        non_negative("walk.phone_height_m", self.phone_height_m)?;
+        if self.waypoints_m.len() == 1 || self.waypoints_m.len() > MAX_WAYPOINTS {
+            return Err(Error::config(
+                "walk.waypoints_m",
+                format!(
+                    "needs 0 or 2..={MAX_WAYPOINTS} waypoints, got {}",
+                    self.waypoints_m.len()
+                ),
+            ));
+        }
+        for (k, w) in self.waypoints_m.iter().enumerate() {
+            if !(w[0].is_finite() && w[1].is_finite()) {
+                return Err(Error::config(
+                    format!("walk.waypoints_m[{k}]"),
+                    "must be finite",
+                ));
+            }
+        }
+        Ok(())
     }
 }
 

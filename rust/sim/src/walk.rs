@@ -177,7 +177,18 @@ pub fn walk(
             cfg.goal_clearance_m
         )));
     }
-    let mut cur = {
+    // A fixed route: every waypoint snapped to the nearest cell of the main
+    // component (at most 1 m away).
+    let fixed: Vec<usize> = cfg
+        .waypoints_m
+        .iter()
+        .enumerate()
+        .map(|(k, w)| snap_waypoint(&grid, &comps, main, Vec2::new(w[0], w[1]), k))
+        .collect::<Result<_>>()?;
+    let mut next_waypoint = 1;
+    let mut cur = if let Some(&first) = fixed.first() {
+        first
+    } else {
         let r = rooms[rng.random_range(0..rooms.len())];
         by_room[r][rng.random_range(0..by_room[r].len())]
     };
@@ -200,7 +211,25 @@ pub fn walk(
     while t < duration_s {
         let cur_room = grid.room_of(cur);
         let mut leg = None;
+        if !fixed.is_empty() {
+            let goal = fixed[next_waypoint % fixed.len()];
+            next_waypoint += 1;
+            let Some(pts) = grid.route(cur, goal, CORNER_CUT_M) else {
+                return Err(Error::config(
+                    "walk.waypoints_m",
+                    format!(
+                        "no route from waypoint {} to waypoint {}",
+                        (next_waypoint - 2) % fixed.len(),
+                        (next_waypoint - 1) % fixed.len()
+                    ),
+                ));
+            };
+            leg = Some((goal, pts));
+        }
         for _ in 0..GOAL_TRIES {
+            if leg.is_some() {
+                break;
+            }
             let others: Vec<usize> = rooms
                 .iter()
                 .copied()
@@ -302,6 +331,33 @@ pub fn walk(
         duration_s,
         weinberg_lowpass_hz: imu.weinberg_lowpass_hz,
     })
+}
+
+/// The cell of the main component nearest to waypoint `p` (number `k`),
+/// at most 1 m away.
+fn snap_waypoint(
+    grid: &PlanGrid,
+    comps: &[usize],
+    main: usize,
+    p: Vec2,
+    k: usize,
+) -> Result<usize> {
+    let best = comps
+        .iter()
+        .enumerate()
+        .filter(|&(_, &comp)| comp == main)
+        .map(|(c, _)| (c, (grid.centre(c) - p).norm()))
+        .min_by(|a, b| a.1.total_cmp(&b.1));
+    match best {
+        Some((c, d)) if d <= 1.0 => Ok(c),
+        _ => Err(Error::config(
+            format!("walk.waypoints_m[{k}]"),
+            format!(
+                "({:.2}, {:.2}) is more than 1 m from any place the walker can stand",
+                p.x, p.y
+            ),
+        )),
+    }
 }
 
 /// The walker's body yaw (MCS, rad) at each of `times_s` (ascending): it

@@ -60,6 +60,13 @@ pub struct PpsaConfig {
     pub min_heading_sigma_rad: f64,
     /// Floor of |delta_j| in the weights A_j = 1/|delta_j| (eq. 19), dB. Default 0.5.
     pub min_delta_db: f64,
+    /// Evaluate P2 (eq. 21) with the angles in degrees. The paper adds a
+    /// density over dBm (P1) to a density over angle (P2) without naming
+    /// the angle's unit; in radians (sigma_alpha ~0.2) P2 peaks at ~2 while
+    /// P1 stays below 0.21 (sigma_LOS 1.9 dB), so the PDR heading alone picks
+    /// the particle and the RSSI hardly counts (docs/reproduction.md, PPSA).
+    /// In degrees P2 is 57.3 times smaller. Default false (radians).
+    pub heading_score_degrees: bool,
 }
 
 impl Default for PpsaConfig {
@@ -73,6 +80,7 @@ impl Default for PpsaConfig {
             ring_sigmas: 3.0,
             min_heading_sigma_rad: 0.2,
             min_delta_db: 0.5,
+            heading_score_degrees: false,
         }
     }
 }
@@ -391,7 +399,12 @@ impl PpsaEngine {
             let p2 = match heading {
                 Some((prev, alpha, s_alpha)) if (x - prev).norm() > 1e-9 => {
                     let a_i = (x.y - prev.y).atan2(x.x - prev.x);
-                    normpdf(wrap_angle(a_i - alpha), 0.0, s_alpha)
+                    let unit = if self.cfg.heading_score_degrees {
+                        180.0 / std::f64::consts::PI
+                    } else {
+                        1.0
+                    };
+                    normpdf(unit * wrap_angle(a_i - alpha), 0.0, unit * s_alpha)
                 }
                 _ => 0.0,
             };

@@ -72,6 +72,11 @@ pub struct ProxPfConfig {
     pub initial_weight: f64,
     /// Proximity class boundaries.
     pub proximity: ProximityConfig,
+    /// Use the floormap in Steps 2-3 (moves stop at walls with the penalty,
+    /// the wall rule). False is the paper's Algorithm C ("our proposed
+    /// algorithm without using a floormap", Table I): particles move
+    /// freely, no penalty, no wall rule. Default true.
+    pub floormap: bool,
 }
 
 impl Default for ProxPfConfig {
@@ -90,6 +95,7 @@ impl Default for ProxPfConfig {
             init_radius_m: 2.0,
             initial_weight: 1.0,
             proximity: ProximityConfig::default(),
+            floormap: true,
         }
     }
 }
@@ -394,7 +400,11 @@ impl ProxPfEngine {
             return;
         };
         let site = Arc::clone(&self.site);
-        let map = floor_map(&site, floor);
+        let map = if self.cfg.floormap {
+            floor_map(&site, floor)
+        } else {
+            None
+        };
         if self.particles.is_empty() {
             self.stats.no_fix += 1;
             return;

@@ -20,7 +20,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::Result;
 use crate::Vec2;
-use crate::ble::{BleConfig, BleFrontEnd};
+use crate::ble::{BleConfig, BleFrontEnd, FilteredBeacon};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
 use crate::events::{BleObservation, GnssFix, SensorData, SensorEvent};
 use crate::floor::FloorTracker;
@@ -203,8 +203,8 @@ impl TcEkfEngine {
             self.floor = floor;
         }
         // proximity (eq. 5): the strongest beacon when it is near
-        let strongest = beacons[0];
-        if strongest.rssi_dbm - self.x[4] >= self.cfg.proximity_rssi_dbm {
+        let (strongest, level) = proximity_candidate(&beacons, self.cfg.proximity_relative_to_r0);
+        if level - self.x[4] >= self.cfg.proximity_rssi_dbm {
             let var = self.cfg.proximity_sigma_m.powi(2);
             if self.position_update(strongest.pos, var, var, true) {
                 // eqs. 6: GE fixed at this instant
@@ -391,5 +391,65 @@ impl Engine for TcEkfEngine {
                 + p.rejected(),
             ..self.stats.clone()
         }
+    }
+}
+
+/// The beacon a proximity fix (eq. 5) would be at, and its level: the
+/// loudest beacon and its RSSI, or with `relative_to_r0` the beacon with the
+/// largest RSSI - R0 and that difference. `beacons` is not empty.
+fn proximity_candidate(beacons: &[FilteredBeacon], relative_to_r0: bool) -> (FilteredBeacon, f64) {
+    if !relative_to_r0 {
+        return (beacons[0], beacons[0].rssi_dbm);
+    }
+    beacons
+        .iter()
+        .map(|b| (*b, b.rssi_dbm - b.model.rssi_1m_dbm))
+        .fold(None::<(FilteredBeacon, f64)>, |best, c| match best {
+            Some(b) if b.1 >= c.1 => Some(b),
+            _ => Some(c),
+        })
+        .unwrap_or((beacons[0], beacons[0].rssi_dbm))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ble::pathloss::PathLoss;
+
+    fn beacon(index: usize, rssi_dbm: f64, r0: f64) -> FilteredBeacon {
+        FilteredBeacon {
+            index,
+            floor: 0,
+            pos: Vec2::new(index as f64, 0.0),
+            dz_m: 1.0,
+            model: PathLoss {
+                rssi_1m_dbm: r0,
+                exponent: 2.0,
+            },
+            rssi_dbm,
+            var_dbm2: 1.0,
+            samples: 5,
+            last_t_ns: 0,
+        }
+    }
+
+    /// Issue 18 (TC replica): a weak-signal transmitter (R0 -79 dBm) 1 m
+    /// away and a strong one (R0 -55 dBm) 3 m up on the same post. The
+    /// absolute rule can only ever pick the strong one (-64.5 dBm), which
+    /// at -62 dBm never fires and at -80 dBm fires 17 m away; relative to
+    /// R0 the weak one is chosen, 1 dB below its R0.
+    #[test]
+    fn relative_proximity_picks_the_weak_transmitter_beside_a_strong_one() {
+        let loud_far = beacon(0, -64.5, -55.0);
+        let weak_near = beacon(1, -80.0, -79.0);
+        let sorted = [loud_far, weak_near]; // the front end sorts loudest first
+        let (b, level) = proximity_candidate(&sorted, false);
+        assert_eq!((b.index, level), (0, -64.5));
+        let (b, level) = proximity_candidate(&sorted, true);
+        assert_eq!((b.index, level), (1, -1.0));
+        // the strong one far away (17.8 m: -80 dBm) is 25 dB below its R0
+        let strong_17m = beacon(2, -80.0, -55.0);
+        let (b, level) = proximity_candidate(&[strong_17m], true);
+        assert_eq!((b.index, level), (2, -25.0));
     }
 }

@@ -32,6 +32,14 @@ pub struct EkfConfig {
     pub heading_sigma_rad: f64,
     /// tc-ekf: beacons at or above this filtered RSSI give a proximity fix (eq. 5), dBm. Default -62.
     pub proximity_rssi_dbm: f64,
+    /// tc-ekf: read `proximity_rssi_dbm` relative to each beacon's own RSSI
+    /// at 1 m (the fix is at the beacon with the largest RSSI - R0, when that
+    /// is >= `proximity_rssi_dbm`). The paper's threshold RSSI_T belongs to
+    /// its weak-signal (-20 dBm) transmitters, which a site with strong
+    /// (+4 dBm) ones on the same posts cannot express as one absolute
+    /// level: the strong ones are always the loudest. Default false (the
+    /// absolute threshold at the loudest beacon).
+    pub proximity_relative_to_r0: bool,
     /// tc-ekf: standard deviation of a proximity fix, metres. Default 2.0.
     pub proximity_sigma_m: f64,
     /// tc-ekf: beacons at or above this filtered RSSI are ranged (eqs. 16-18), dBm. Default -85.
@@ -81,6 +89,7 @@ impl Default for EkfConfig {
             speed_sigma_mps: 0.2,
             heading_sigma_rad: 0.15,
             proximity_rssi_dbm: -62.0,
+            proximity_relative_to_r0: false,
             proximity_sigma_m: 2.0,
             ranging_rssi_dbm: -90.0,
             ranging_max_beacons: 6,

@@ -12,7 +12,7 @@ use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent, WifiRe
 use fpbp_core::fingerprint::FingerprintSet;
 use fpbp_core::site::GeoRef;
 
-use crate::error::{BridgeError, clip};
+use crate::error::BridgeError;
 use crate::site_loader;
 
 /// Task codes of the Kotlin side (`NativeBridge.TASK_GML`, `TASK_FUSION`).
@@ -138,8 +138,9 @@ impl Session {
         fingerprints_json: Option<&str>,
     ) -> Result<Session, BridgeError> {
         if !fpbp_core::engine::ENGINE_NAMES.contains(&engine) {
+            // the entry point's error policy clips the echoed name (clip_echoes)
             return Err(fpbp_core::Error::UnknownEngine(
-                clip(engine),
+                engine.to_string(),
                 fpbp_core::engine::ENGINE_NAMES.join(", "),
             )
             .into());

@@ -1,7 +1,6 @@
 package io.fpbp.robo
 
 import android.Manifest
-import android.app.Application
 import android.bluetooth.BluetoothManager
 import android.bluetooth.le.ScanCallback
 import android.bluetooth.le.ScanRecord
@@ -11,13 +10,11 @@ import android.os.SystemClock
 import io.fpbp.PositioningState
 import io.fpbp.Problem
 import io.fpbp.android.FpbpPositioning
-import org.junit.After
 import org.junit.Assert.assertEquals
 import org.junit.Assert.assertTrue
 import org.junit.Before
 import org.junit.Test
 import org.junit.runner.RunWith
-import org.robolectric.RuntimeEnvironment
 import org.robolectric.Shadows.shadowOf
 import org.robolectric.annotation.Config
 import org.robolectric.shadows.ShadowBluetoothLeScanner
@@ -25,30 +22,16 @@ import org.robolectric.shadows.ShadowBluetoothLeScanner
 /** The library's BLE source on the Android framework, feeding the real libfpbp. */
 @RunWith(FpbpRobolectricRunner::class)
 @Config(manifest = Config.NONE, sdk = [35])
-class BleSourceRoboTest {
-    private lateinit var app: Application
-    private var positioning: FpbpPositioning? = null
+class BleSourceRoboTest : OpenSitePositioningTest() {
 
     private val bluetooth get() = app.getSystemService(Context.BLUETOOTH_SERVICE) as BluetoothManager
     private val scanner get() = shadowOf(bluetooth.adapter.bluetoothLeScanner) as ShadowBluetoothLeScanner
 
     @Before
     fun setUp() {
-        app = RuntimeEnvironment.getApplication()
         shadowOf(app).grantPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION)
         shadowOf(bluetooth.adapter).setEnabled(true)
     }
-
-    @After
-    fun tearDown() {
-        positioning?.close()
-    }
-
-    private fun start(): FpbpPositioning =
-        FpbpPositioning(app, RoboSupport.openSite).also {
-            positioning = it
-            it.start()
-        }
 
     private fun advert(mac: String, rssi: Int): ScanResult {
         val device = bluetooth.adapter.getRemoteDevice(mac)

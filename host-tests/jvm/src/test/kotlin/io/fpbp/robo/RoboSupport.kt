@@ -27,3 +27,20 @@ object RoboSupport {
     fun stat(json: String?, key: String): Long =
         json?.let { Regex("\"$key\":(\\d+)").find(it)?.groupValues?.get(1)?.toLong() } ?: -1
 }
+
+/** Base of the tests that run one [FpbpPositioning] on the open site: started by [start], closed after each test. */
+abstract class OpenSitePositioningTest {
+    protected val app: android.app.Application get() = org.robolectric.RuntimeEnvironment.getApplication()
+    protected var positioning: FpbpPositioning? = null
+
+    @org.junit.After
+    fun closePositioning() {
+        positioning?.close()
+    }
+
+    protected fun start(options: FpbpPositioning.Options = FpbpPositioning.Options()): FpbpPositioning =
+        FpbpPositioning(app, RoboSupport.openSite, options).also {
+            positioning = it
+            it.start()
+        }
+}

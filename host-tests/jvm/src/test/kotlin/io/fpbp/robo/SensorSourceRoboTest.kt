@@ -1,19 +1,16 @@
 package io.fpbp.robo
 
-import android.app.Application
 import android.content.Context
 import android.hardware.Sensor
 import android.hardware.SensorManager
 import io.fpbp.Problem
 import io.fpbp.android.FpbpPositioning
-import org.junit.After
 import org.junit.Assert.assertEquals
 import org.junit.Assert.assertFalse
 import org.junit.Assert.assertTrue
 import org.junit.Before
 import org.junit.Test
 import org.junit.runner.RunWith
-import org.robolectric.RuntimeEnvironment
 import org.robolectric.Shadows.shadowOf
 import org.robolectric.annotation.Config
 import org.robolectric.shadows.SensorEventBuilder
@@ -23,30 +20,16 @@ import org.robolectric.shadows.ShadowSensorManager
 /** The library's sensor source on the Android framework, feeding the real libfpbp. */
 @RunWith(FpbpRobolectricRunner::class)
 @Config(manifest = Config.NONE, sdk = [35])
-class SensorSourceRoboTest {
-    private lateinit var app: Application
+class SensorSourceRoboTest : OpenSitePositioningTest() {
     private lateinit var sensors: ShadowSensorManager
-    private var positioning: FpbpPositioning? = null
 
     @Before
     fun setUp() {
-        app = RuntimeEnvironment.getApplication()
         sensors = shadowOf(app.getSystemService(Context.SENSOR_SERVICE) as SensorManager)
         // A phone with an accelerometer and a gyroscope only.
         sensors.addSensor(ShadowSensor.newInstance(Sensor.TYPE_ACCELEROMETER))
         sensors.addSensor(ShadowSensor.newInstance(Sensor.TYPE_GYROSCOPE))
     }
-
-    @After
-    fun tearDown() {
-        positioning?.close()
-    }
-
-    private fun start(): FpbpPositioning =
-        FpbpPositioning(app, RoboSupport.openSite).also {
-            positioning = it
-            it.start()
-        }
 
     @Test
     fun sensorEventsReachTheEngineAndMissingSensorsAreReported() {

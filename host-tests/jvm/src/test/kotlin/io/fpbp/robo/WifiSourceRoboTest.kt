@@ -1,34 +1,23 @@
 package io.fpbp.robo
 
 import android.Manifest
-import android.app.Application
 import android.content.Context
 import android.content.Intent
 import android.net.wifi.ScanResult
 import android.net.wifi.WifiManager
 import io.fpbp.Radio
 import io.fpbp.android.FpbpPositioning
-import org.junit.After
 import org.junit.Assert.assertEquals
 import org.junit.Assert.assertTrue
 import org.junit.Test
 import org.junit.runner.RunWith
-import org.robolectric.RuntimeEnvironment
 import org.robolectric.Shadows.shadowOf
 import org.robolectric.annotation.Config
 
 /** WiFi scan results (passive broadcasts) reach the engine through onWifiScan. */
 @RunWith(FpbpRobolectricRunner::class)
 @Config(manifest = Config.NONE, sdk = [35])
-class WifiSourceRoboTest {
-    private val app: Application get() = RuntimeEnvironment.getApplication()
-    private var positioning: FpbpPositioning? = null
-
-    @After
-    fun tearDown() {
-        positioning?.close()
-    }
-
+class WifiSourceRoboTest : OpenSitePositioningTest() {
     private fun result(bssid: String, level: Int, freq: Int): ScanResult = ScanResult().apply {
         BSSID = bssid
         this.level = level
@@ -44,9 +33,7 @@ class WifiSourceRoboTest {
         shadowOf(wifi).setScanResults(
             listOf(result("aa:bb:cc:dd:ee:01", -55, 2412), result("AA:BB:CC:DD:EE:02", -71, 5180), result("bad", -60, 2412)),
         )
-        val p = FpbpPositioning(app, RoboSupport.openSite, FpbpPositioning.Options(radios = setOf(Radio.WIFI)))
-        positioning = p
-        p.start()
+        val p = start(FpbpPositioning.Options(radios = setOf(Radio.WIFI)))
         RoboSupport.idleUntil(300) { false }
         app.sendBroadcast(Intent(WifiManager.SCAN_RESULTS_AVAILABLE_ACTION))
         assertTrue(RoboSupport.idleUntil { RoboSupport.stat(p.statsJson(), "wifi_scans") >= 1L })

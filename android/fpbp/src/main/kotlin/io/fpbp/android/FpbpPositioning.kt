@@ -99,6 +99,9 @@ class FpbpPositioning @JvmOverloads constructor(
         /** Period of the delivery heartbeat and status checks, ms. */
         const val TICK_MS: Long = 100
 
+        /** How long no activity of the app is started before the sources switch to background mode, ms. */
+        const val BACKGROUND_DELAY_MS: Long = 1000
+
         /** Status checks (beacon heard, lost) every this many ticks (1 s). */
         const val STATUS_TICKS: Int = 10
 
@@ -409,6 +412,9 @@ class FpbpPositioning @JvmOverloads constructor(
         for ((executor, listener) in statusListeners) executor.execute { listener.onStatus(s) }
     }
 
+    private val mainHandler = Handler(Looper.getMainLooper())
+    private val toBackground = Runnable { if (startedActivities == 0) setForeground(false) }
+
     private val lifecycle = object : Application.ActivityLifecycleCallbacks {
         override fun onActivityStarted(activity: Activity) {
             startedActivities++
@@ -417,7 +423,9 @@ class FpbpPositioning @JvmOverloads constructor(
 
         override fun onActivityStopped(activity: Activity) {
             startedActivities = (startedActivities - 1).coerceAtLeast(0)
-            if (startedActivities == 0) setForeground(false)
+            // A rotation stops one activity and starts the next: wait before
+            // switching modes, so it costs no scan restart.
+            if (startedActivities == 0) mainHandler.postDelayed(toBackground, BACKGROUND_DELAY_MS)
         }
 
         override fun onActivityCreated(activity: Activity, savedInstanceState: Bundle?) = Unit
@@ -436,6 +444,7 @@ class FpbpPositioning @JvmOverloads constructor(
     }
 
     private fun unregisterLifecycle() {
+        mainHandler.removeCallbacks(toBackground)
         val a = app as? Application ?: return
         if (lifecycleRegistered) {
             a.unregisterActivityLifecycleCallbacks(lifecycle)

@@ -77,10 +77,10 @@ class PoseDispatcher(private val clock: Clock) {
 
     private val subs = CopyOnWriteArrayList<Sub>()
 
+    private val deliveries = java.util.concurrent.atomic.AtomicLong()
+
     /** Deliveries handed to executors so far (all listeners). */
-    @Volatile
-    var delivered: Long = 0
-        private set
+    val delivered: Long get() = deliveries.get()
 
     /** Registered listeners. */
     val size: Int get() = subs.size
@@ -109,7 +109,7 @@ class PoseDispatcher(private val clock: Clock) {
                 go
             }
             if (due) {
-                delivered++
+                deliveries.incrementAndGet()
                 s.executor.execute { if (s.active) s.listener.onPose(pose) }
             }
         }

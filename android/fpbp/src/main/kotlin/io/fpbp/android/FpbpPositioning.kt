@@ -46,7 +46,7 @@ import java.util.concurrent.TimeUnit
  * ```
  * val positioning = FpbpPositioning(context, FpbpPositioning.Site(siteJson, siteDir))
  * positioning.addStatusListener(mainExecutor) { status -> statusLine.text = status.describe() }
- * lifecycleScope.launch { positioning.poses().collect { pose -> show(pose) } }
+ * scope.launch { positioning.poses().collect { pose -> show(pose) } }
  * positioning.start()   // after RadioPermissions.required(...) were requested
  * ```
  *

@@ -1,5 +1,5 @@
-// fpbp Android project: the Kotlin library (:fpbp, JVM-only, no android.* imports)
-// and the sample app (:app). Open this folder (android/) in Android Studio with
+// fpbp Android project: the Android library (:fpbp, an AAR with libfpbp.so;
+// its io.fpbp package has no android.* imports) and the sample app (:app). Open this folder (android/) in Android Studio with
 // the NDK and cargo-ndk installed; see README.md.
 pluginManagement {
     repositories {

@@ -8,7 +8,11 @@
 #    the sample app sources (android/app, against Robolectric's android-all
 #    jar) and runs the JUnit 5 tests against the real libfpbp:
 #    replay equality (a), hammer (b), exceptions (c), native log round trip;
-# 4. prints the Surefire summary;
+#    and the Robolectric tests (io.fpbp.robo: the library's Android layer
+#    and the sample app on the Android framework, SDK 35 and 31, with
+#    android-all-instrumented fetched by Maven as ordinary artifacts);
+# 4. prints the Surefire summary; with CI=true, fails when no Robolectric
+#    test ran or any JVM test was skipped;
 # 5. runs host-tests/android-check.sh (Android targets, best effort).
 #
 # Options: --bench  run only the JNI per-call overhead benchmark (prints figures).
@@ -24,7 +28,13 @@ target="${CARGO_TARGET_DIR:-$repo/target}"
 bench=0
 [ "${1:-}" = "--bench" ] && bench=1
 
+# In CI (CI=true) the JVM and Robolectric tests must run: missing tools fail.
+ci="${CI:-false}"
 if ! command -v mvn >/dev/null || ! command -v java >/dev/null; then
+  if [ "$ci" = "true" ]; then
+    echo "JVM host tests cannot run: mvn and java are needed on PATH (CI=true: this is a failure, not a skip)"
+    exit 1
+  fi
   echo "skipped: JVM host tests need mvn and java on PATH"
   exit 0
 fi
@@ -90,19 +100,29 @@ rm -rf "$here/target/surefire-reports"
 status=0
 (cd "$here" && mvn -B -q -Dstyle.color=never "${props[@]}" clean test) || status=$?
 
-# Surefire summary (mvn -q hides Surefire's own).
-python3 - "$here/target/surefire-reports" <<'PY' || true
+# Surefire summary (mvn -q hides Surefire's own); exit 3 when CI=true and
+# Robolectric tests did not run or something was skipped.
+summary=0
+python3 - "$here/target/surefire-reports" "$ci" "$bench" <<'PY' || summary=$?
 import glob, sys, xml.etree.ElementTree as ET
 t = f = e = s = 0
+robo = robo_skipped = 0
 for p in sorted(glob.glob(sys.argv[1] + "/TEST-*.xml")):
     r = ET.parse(p).getroot()
     n, fl, er, sk = (int(r.get(k, 0)) for k in ("tests", "failures", "errors", "skipped"))
     t += n; f += fl; e += er; s += sk
+    if r.get("name", "").startswith("io.fpbp.robo."):
+        robo += n; robo_skipped += sk
     print(f"  {r.get('name')}: {n} tests, {fl} failures, {er} errors, {sk} skipped")
 print(f"Surefire: Tests run: {t}, Failures: {f}, Errors: {e}, Skipped: {s}")
+print(f"robolectric: {robo} tests on the Android framework, {robo_skipped} skipped")
 print(f"jvm: {t - f - e - s} passed, {f + e} failed, {s} skipped")
+if sys.argv[2] == "true" and sys.argv[3] == "0" and (robo == 0 or s > 0):
+    print("CI=true: the Robolectric tests must run and no JVM test may be skipped")
+    sys.exit(3)
 PY
 [ $status -eq 0 ] || { echo "JVM host tests FAILED (mvn exit $status)"; exit $status; }
+[ $summary -eq 0 ] || { echo "JVM host tests FAILED (skipped or missing tests under CI)"; exit 1; }
 
 if [ $bench -eq 0 ] && [ -x "$repo/host-tests/android-check.sh" ]; then
   "$repo/host-tests/android-check.sh"

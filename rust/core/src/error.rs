@@ -24,6 +24,10 @@ pub enum Error {
     /// Bad input handed to an engine (e.g. a sensor event with the wrong arity).
     #[error("invalid input: {0}")]
     Input(String),
+    /// An operation the engine does not offer (e.g. `set_position` on an
+    /// engine without a way to move its state to a given point).
+    #[error("{0}")]
+    Unsupported(String),
     /// Calibration could not produce a result.
     #[error("calibration: {0}")]
     Calibration(String),

@@ -37,10 +37,46 @@ pub fn wgs84_from_mcs(georef: &GeoRef, map_from_enu_rad: f64, p: Vec2) -> (f64, 
     wgs84_from_enu(georef.lat_deg, georef.lon_deg, en)
 }
 
+/// Bearing from true north, degrees clockwise in [0, 360), of an MCS heading
+/// (radians, atan2(dy, dx) in the MCS); the MCS is the ENU frame rotated by
+/// `map_from_enu_rad`, so the ENU angle is `heading - map_from_enu_rad`.
+pub fn bearing_deg_from_mcs(heading_rad: f64, map_from_enu_rad: f64) -> f64 {
+    let enu_deg = (heading_rad - map_from_enu_rad).to_degrees();
+    let b = (90.0 - enu_deg).rem_euclid(360.0);
+    // rem_euclid of a value just below 0 may round to exactly 360
+    if b >= 360.0 { 0.0 } else { b }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn bearings_of_mcs_headings() {
+        use std::f64::consts::FRAC_PI_2;
+        // MCS = ENU: x east (90 deg), y north (0 deg), -x west (270 deg)
+        assert!((bearing_deg_from_mcs(0.0, 0.0) - 90.0).abs() < 1e-12);
+        assert!(bearing_deg_from_mcs(FRAC_PI_2, 0.0).abs() < 1e-12);
+        assert!((bearing_deg_from_mcs(std::f64::consts::PI, 0.0) - 270.0).abs() < 1e-12);
+        // MCS x axis pointing north (ENU rotated by +90 deg into the MCS)
+        assert!(bearing_deg_from_mcs(0.0, -FRAC_PI_2).abs() < 1e-12);
+        assert!((bearing_deg_from_mcs(0.0, FRAC_PI_2) - 180.0).abs() < 1e-12);
+        assert!(bearing_deg_from_mcs(-1e-17, -FRAC_PI_2 - 1e-17) < 360.0);
+    }
+
+    proptest! {
+        #[test]
+        fn bearing_in_range_and_matches_the_enu_vector(h in -10.0f64..10.0, rot in -3.2f64..3.2) {
+            let b = bearing_deg_from_mcs(h, rot);
+            prop_assert!((0.0..360.0).contains(&b));
+            // the MCS unit vector of h, rotated back to ENU, has this bearing
+            let en = rotate(Vec2::new(h.cos(), h.sin()), -rot);
+            let want = en.x.atan2(en.y).to_degrees().rem_euclid(360.0);
+            let d = (b - want).rem_euclid(360.0);
+            prop_assert!(d.min(360.0 - d) < 1e-9);
+        }
+    }
 
     proptest! {
         #[test]

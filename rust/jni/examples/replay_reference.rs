@@ -6,9 +6,9 @@
 //! of its bits, so the JVM side can check bit-for-bit equality:
 //!
 //! ```text
-//! # fpbp-replay-reference 1 engine=fpbp events=12345
+//! # fpbp-replay-reference 2 engine=fpbp events=12345
 //! # stats {"engine":"fpbp",...}
-//! <t_ns> <x bits> <y bits> <floor> <heading bits> <accuracy bits>
+//! <t_ns> <x bits> <y bits> <floor> <heading bits> <accuracy bits> <floor_prob bits> <source code>
 //! ```
 //!
 //! Usage: `replay_reference --site SITE.json --log LOG --engine NAME
@@ -97,27 +97,29 @@ fn run(a: &Args) -> Result<(), String> {
         build_engine(&a.engine, Arc::new(site), &config, init).map_err(|e| e.to_string())?;
     let out = replay(engine.as_mut(), events);
     // Stats as the JNI `stats` call reports them.
-    let stats = Session::from_engine(engine).stats_json();
+    let stats = Session::from_engine(engine).snapshot().stats_json();
     let mut w = std::io::BufWriter::new(
         std::fs::File::create(&a.out).map_err(|e| format!("{}: {e}", a.out.display()))?,
     );
     let mut put = || -> std::io::Result<()> {
         writeln!(
             w,
-            "# fpbp-replay-reference 1 engine={} events={n}",
+            "# fpbp-replay-reference 2 engine={} events={n}",
             a.engine
         )?;
         writeln!(w, "# stats {stats}")?;
         for p in &out.track {
             writeln!(
                 w,
-                "{} {} {} {} {} {}",
+                "{} {} {} {} {} {} {} {}",
                 p.t_ns,
                 bits(p.x_m),
                 bits(p.y_m),
                 p.floor,
                 bits(p.heading_rad),
-                bits(p.accuracy_m)
+                bits(p.accuracy_m),
+                bits(p.floor_prob),
+                p.source.code()
             )?;
         }
         w.flush()

@@ -5,6 +5,7 @@
 //! |-------------------------------|----------------------------------------|
 //! | bad input, config, site, name | `java.lang.IllegalArgumentException`   |
 //! | stale or stopped handle       | `java.lang.IllegalStateException`      |
+//! | engine refuses the operation  | `java.lang.UnsupportedOperationException` |
 //! | panic, poisoned lock, JNI bug | `io.fpbp.FpbpNativeException` (a `RuntimeException`) |
 
 use jni::Env;
@@ -23,6 +24,9 @@ pub enum BridgeError {
     /// The handle is unknown: never started, already stopped, or forged.
     #[error("{0}")]
     IllegalState(String),
+    /// The engine does not offer the operation (e.g. `setPosition`).
+    #[error("{0}")]
+    Unsupported(String),
     /// A bug or an earlier panic inside the native library.
     #[error("{0}")]
     Internal(String),
@@ -43,9 +47,61 @@ impl BridgeError {
         match self {
             BridgeError::IllegalArgument(_) => "java/lang/IllegalArgumentException",
             BridgeError::IllegalState(_) => "java/lang/IllegalStateException",
+            BridgeError::Unsupported(_) => "java/lang/UnsupportedOperationException",
             BridgeError::Internal(_) | BridgeError::Jni(_) => INTERNAL_EXCEPTION_CLASS,
         }
     }
+}
+
+/// Longest run of caller input an exception message repeats, chars.
+pub const MAX_ECHO_CHARS: usize = 200;
+
+/// Longest exception message, chars (after [`clip_echoes`]).
+pub const MAX_MESSAGE_CHARS: usize = 2000;
+
+/// `s` itself when it has at most [`MAX_ECHO_CHARS`] chars, else its first
+/// ones and how long it was: for messages that repeat caller input.
+pub fn clip(s: &str) -> String {
+    let n = s.chars().count();
+    if n <= MAX_ECHO_CHARS {
+        return s.to_string();
+    }
+    let head: String = s.chars().take(MAX_ECHO_CHARS).collect();
+    format!("{head}... ({n} chars)")
+}
+
+/// Clips every quoted run (between a pair of `` ` `` or `"`) longer than
+/// [`MAX_ECHO_CHARS`]: core and serde errors quote the input they repeat
+/// (unknown field names, string values). Then caps the whole message at
+/// [`MAX_MESSAGE_CHARS`], saying how long it was.
+pub fn clip_echoes(msg: &str) -> String {
+    let chars: Vec<char> = msg.chars().collect();
+    let mut out = String::with_capacity(msg.len().min(MAX_MESSAGE_CHARS + 64));
+    let mut i = 0;
+    while i < chars.len() {
+        let c = chars[i];
+        out.push(c);
+        i += 1;
+        if c != '`' && c != '"' {
+            continue;
+        }
+        let end = chars[i..]
+            .iter()
+            .position(|&d| d == c)
+            .map_or(chars.len(), |k| i + k);
+        let run: String = chars[i..end].iter().collect();
+        out.push_str(&clip(&run));
+        if end < chars.len() {
+            out.push(c);
+        }
+        i = end + 1;
+    }
+    let n = out.chars().count();
+    if n <= MAX_MESSAGE_CHARS {
+        return out;
+    }
+    let head: String = out.chars().take(MAX_MESSAGE_CHARS).collect();
+    format!("{head}... (message cut, {n} chars)")
 }
 
 /// Text of a panic payload.
@@ -98,7 +154,7 @@ impl<T: Default> ErrorPolicy<T, BridgeError> for ThrowJava {
         if let BridgeError::Jni(jni::errors::Error::JavaException) = err {
             return Ok(T::default()); // pending Java exception propagates as is
         }
-        let msg = format!("fpbp {method}: {err}");
+        let msg = clip_echoes(&format!("fpbp {method}: {err}"));
         log::debug!("{msg}");
         throw(env, err.java_class(), &msg)?;
         Ok(T::default())
@@ -109,12 +165,43 @@ impl<T: Default> ErrorPolicy<T, BridgeError> for ThrowJava {
         method: &mut &'static str,
         payload: Box<dyn std::any::Any + Send + 'static>,
     ) -> jni::errors::Result<T> {
-        let msg = format!(
+        let msg = clip_echoes(&format!(
             "fpbp {method}: internal panic: {}",
             panic_message(payload.as_ref())
-        );
+        ));
         log::error!("{msg}");
         throw(env, INTERNAL_EXCEPTION_CLASS, &msg)?;
         Ok(T::default())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_echoes_are_clipped_and_say_how_long_they_were() {
+        assert_eq!(clip("short"), "short");
+        let long = "x".repeat(10_000);
+        let c = clip(&long);
+        assert!(c.len() < 300 && c.ends_with("(10000 chars)"), "{c}");
+        let msg = format!("unknown engine `{long}` (known: fpbp, bp); value \"{long}\" too");
+        let m = clip_echoes(&msg);
+        assert!(m.len() < 700, "{}", m.len());
+        assert!(m.contains("(10000 chars)` (known: fpbp, bp)"), "{m}");
+        assert!(m.ends_with("(10000 chars)\" too"), "{m}");
+        // an unterminated quote is clipped too
+        let m = clip_echoes(&format!("bad `{long}"));
+        assert!(m.len() < 300 && m.ends_with("(10000 chars)"), "{m}");
+        // short messages pass unchanged; a long unquoted one is capped
+        assert_eq!(
+            clip_echoes("fpbp start: `a` and \"b\""),
+            "fpbp start: `a` and \"b\""
+        );
+        let m = clip_echoes(&"y ".repeat(5_000));
+        assert!(
+            m.chars().count() < MAX_MESSAGE_CHARS + 40 && m.ends_with("(message cut, 10000 chars)"),
+            "{m}"
+        );
     }
 }

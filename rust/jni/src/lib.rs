@@ -3,54 +3,77 @@
 //! arguments, forwards to `fpbp_core` through a [`session::Session`] and
 //! converts the result back.
 //!
-//! Contract (also in android/README.md):
+//! Contract (also in docs/android.md):
 //! - Handles are `Long` ids (> 0, never reused) into a registry
 //!   ([`registry::Registry`]); a stale or stopped handle throws
 //!   `IllegalStateException`, it never touches freed memory.
-//! - Every entry point runs inside [`entry`], which catches panics; errors
-//!   become `IllegalArgumentException` (bad input/config/site/engine name),
-//!   `IllegalStateException` (stale handle) or `io.fpbp.FpbpNativeException`
-//!   (internal error, panic).
-//! - Recording calls (`onSensor`, `onBleScan`, `onGnss`) never throw for a
-//!   bad sample: it is counted (`stats`). They throw only for a stale handle.
-//! - Thread safety: any thread may call any function at any time. Calls on
-//!   one handle are serialised by that handle's mutex (one lock, no nesting).
+//! - Every entry point runs inside [`entry`], which catches panics (the
+//!   logger set-up included); errors become `IllegalArgumentException` (bad
+//!   input/config/site/engine name), `IllegalStateException` (stale handle),
+//!   `UnsupportedOperationException` (the engine refuses, e.g.
+//!   `setPosition`) or `io.fpbp.FpbpNativeException` (internal error,
+//!   panic). Messages clip any echoed input to 200 chars.
+//! - Recording calls (`onSensor`, `onBleScan`, `onGnss`, `onWifiScan`) never
+//!   throw for a bad sample: it is counted (`stats`). They throw only for a
+//!   stale handle.
+//! - Thread safety: any thread may call any function at any time. Calls
+//!   that feed or run the engine are serialised by that handle's engine
+//!   mutex; `getPose`, `getBlePosition`, `stats` and `taskPeriodNs` read the
+//!   snapshot published after each such call ([`live::Live`]) and never wait
+//!   for a running task.
 #![deny(clippy::unwrap_used)]
 #![allow(non_snake_case)] // JNI symbol names
 
 pub mod error;
+pub mod live;
 pub mod logging;
 pub mod registry;
+pub mod selftest;
 pub mod session;
 pub mod site_loader;
 
 use std::path::Path;
 use std::sync::LazyLock;
 
-use jni::objects::{JClass, JDoubleArray, JString};
-use jni::sys::{jdouble, jint, jlong};
+use jni::objects::{JClass, JDoubleArray, JIntArray, JLongArray, JObjectArray, JString};
+use jni::sys::{jboolean, jdouble, jint, jlong};
 use jni::{Env, EnvUnowned};
 
 use error::{BridgeError, ThrowJava};
+use live::Live;
 use registry::Registry;
-use session::{POSE_LEN, Session};
-
-/// `getPose`'s return value when the engine has no fix yet.
-pub const NO_POSE: jlong = jlong::MIN;
+use session::{MAX_BSSID_BYTES, MAX_WIFI_RESULTS, POSE_LEN, Session, WifiEntries};
 
 /// Most values a sensor sample may carry (Android sends at most 5 for ours).
 const MAX_SENSOR_VALUES: usize = 8;
 
-static SESSIONS: LazyLock<Registry<Session>> = LazyLock::new(Registry::default);
+static SESSIONS: LazyLock<Registry<Live>> = LazyLock::new(Registry::default);
 
-/// Runs one entry point: logger set-up, panic catching, error -> exception.
+/// Runs one entry point: logger set-up and the call inside the panic guard,
+/// error -> exception.
 fn entry<'local, T: Default>(
     env: &mut EnvUnowned<'local>,
     method: &'static str,
     f: impl FnOnce(&mut Env<'local>) -> Result<T, BridgeError>,
 ) -> T {
-    logging::init();
-    env.with_env(f).resolve_with::<ThrowJava, _>(|| method)
+    env.with_env(|env| {
+        logging::init();
+        f(env)
+    })
+    .resolve_with::<ThrowJava, _>(|| method)
+}
+
+/// Runs `f` on the session of `handle` under its engine lock, then publishes.
+fn with_session<R>(
+    handle: jlong,
+    f: impl FnOnce(&mut Session) -> Result<R, BridgeError>,
+) -> Result<R, BridgeError> {
+    SESSIONS.get(handle)?.call(handle, f)
+}
+
+/// The published snapshot of `handle` (never waits for the engine).
+fn snapshot(handle: jlong) -> Result<session::Snapshot, BridgeError> {
+    SESSIONS.get(handle)?.snapshot(handle)
 }
 
 fn string_arg(env: &Env<'_>, s: &JString<'_>, name: &str) -> Result<String, BridgeError> {
@@ -78,23 +101,45 @@ fn double_array(env: &Env<'_>, a: &JDoubleArray<'_>) -> Result<Option<Vec<f64>>,
     Ok(Some(v))
 }
 
+fn primitive_len<T: jni::objects::TypeArray>(
+    env: &Env<'_>,
+    a: &jni::objects::JPrimitiveArray<'_, T>,
+) -> Result<Option<usize>, BridgeError> {
+    if a.is_null() {
+        return Ok(None);
+    }
+    Ok(Some(a.len(env)?))
+}
+
+/// Writes `pose` into `out` (length >= POSE_LEN) and its time into
+/// `out_time[0]`; returns whether there was a pose (else both are untouched).
 fn write_pose(
     env: &Env<'_>,
     out: &JDoubleArray<'_>,
+    out_time: &JLongArray<'_>,
     pose: Option<fpbp_core::engine::Pose>,
-) -> Result<jlong, BridgeError> {
-    if out.is_null() {
-        return Err(BridgeError::IllegalArgument("out array is null".into()));
+    frame: &session::MapFrame,
+) -> Result<jboolean, BridgeError> {
+    if out.is_null() || out_time.is_null() {
+        return Err(BridgeError::IllegalArgument(
+            "out or outTimeNs array is null".into(),
+        ));
     }
     let n = out.len(env)?;
     if n < POSE_LEN {
         return Err(BridgeError::IllegalArgument(format!(
-            "out array has {n} elements, needs {POSE_LEN} (x, y, floor, heading, accuracy)"
+            "out array has {n} elements, needs {POSE_LEN} (NativeBridge.POSE_LEN)"
         )));
     }
-    let Some(pose) = pose else { return Ok(NO_POSE) };
-    out.set_region(env, 0, &session::pose_to_array(&pose))?;
-    Ok(pose.t_ns)
+    if out_time.len(env)? < 1 {
+        return Err(BridgeError::IllegalArgument(
+            "outTimeNs array is empty, needs 1 element".into(),
+        ));
+    }
+    let Some(pose) = pose else { return Ok(false) };
+    out.set_region(env, 0, &session::pose_to_array(&pose, frame))?;
+    out_time.set_region(env, 0, &[pose.t_ns])?;
+    Ok(true)
 }
 
 /// `start(siteJson, siteDir, configJson, engine, init: DoubleArray?,
@@ -129,7 +174,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
             init,
             fingerprints.as_deref(),
         )?;
-        let handle = SESSIONS.insert(session)?;
+        let handle = SESSIONS.insert(Live::new(session))?;
         log::info!("started engine `{engine}` as handle {handle}");
         Ok(handle)
     })
@@ -165,7 +210,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_onSensor<'l>(
             values.get_region(env, 0, &mut buf[..n])?;
             Some(n)
         };
-        SESSIONS.with(handle, |s| {
+        with_session(handle, |s| {
             s.on_sensor(sensor_type, t_ns, n.map(|n| &buf[..n]));
             Ok(())
         })
@@ -185,7 +230,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_onBleScan<'l>(
 ) {
     entry(&mut env, "onBleScan", |env| {
         let id = optional_string(env, &beacon_id)?;
-        SESSIONS.with(handle, |s| {
+        with_session(handle, |s| {
             s.on_ble(t_ns, id, rssi_dbm, tx_power_dbm);
             Ok(())
         })
@@ -208,7 +253,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_onGnss<'l>(
     bearing_deg: jdouble,
 ) {
     entry(&mut env, "onGnss", |_| {
-        SESSIONS.with(handle, |s| {
+        with_session(handle, |s| {
             s.on_gnss(
                 t_ns,
                 lat_deg,
@@ -229,7 +274,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_runGml<'l>(
     t_ns: jlong,
 ) {
     entry(&mut env, "runGml", |_| {
-        SESSIONS.with(handle, |s| {
+        with_session(handle, |s| {
             s.run_task(fpbp_core::engine::Task::Ble, t_ns);
             Ok(())
         })
@@ -245,7 +290,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_runFusion<'l>(
     t_ns: jlong,
 ) {
     entry(&mut env, "runFusion", |_| {
-        SESSIONS.with(handle, |s| {
+        with_session(handle, |s| {
             s.run_task(fpbp_core::engine::Task::Fusion, t_ns);
             Ok(())
         })
@@ -263,42 +308,50 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_taskPeriodNs<'l>(
 ) -> jlong {
     entry(&mut env, "taskPeriodNs", |_| {
         let task = session::task_from_code(task)?;
-        SESSIONS.with(handle, |s| Ok(s.task_period_ns(task)))
+        let periods = snapshot(handle)?.periods_ns;
+        Ok(match task {
+            fpbp_core::engine::Task::Ble => periods[0],
+            fpbp_core::engine::Task::Fusion => periods[1],
+        })
     })
 }
 
-/// `getPose(handle, out) -> tNs`: writes `[x, y, floor, heading, accuracy]`
-/// into `out` (length >= 5) and returns the pose's time, or `NO_POSE`
-/// (Long.MIN_VALUE) before the first fix (then `out` is untouched).
+/// `getPose(handle, out, outTimeNs) -> Boolean`: writes the latest pose into
+/// `out` (length >= `POSE_LEN`, layout `session::pose_index`) and its time
+/// into `outTimeNs[0]`; false before the first fix (both untouched). Reads
+/// the published snapshot: never waits for a running task.
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_getPose<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
     handle: jlong,
     out: JDoubleArray<'l>,
-) -> jlong {
+    out_time: JLongArray<'l>,
+) -> jboolean {
     entry(&mut env, "getPose", |env| {
-        let pose = SESSIONS.with(handle, |s| Ok(s.pose()))?;
-        write_pose(env, &out, pose)
+        let snap = snapshot(handle)?;
+        write_pose(env, &out, &out_time, snap.pose, &snap.frame)
     })
 }
 
-/// `getBlePosition(handle, out) -> tNs`: like `getPose` for the last
-/// BLE-only position x_B (engines without one always return `NO_POSE`).
+/// `getBlePosition(handle, out, outTimeNs) -> Boolean`: like `getPose` for
+/// the last BLE-only position x_B (engines without one always return false).
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_getBlePosition<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
     handle: jlong,
     out: JDoubleArray<'l>,
-) -> jlong {
+    out_time: JLongArray<'l>,
+) -> jboolean {
     entry(&mut env, "getBlePosition", |env| {
-        let pose = SESSIONS.with(handle, |s| Ok(s.ble_position()))?;
-        write_pose(env, &out, pose)
+        let snap = snapshot(handle)?;
+        write_pose(env, &out, &out_time, snap.ble_position, &snap.frame)
     })
 }
 
-/// `stats(handle) -> String`: the engine's counters as JSON.
+/// `stats(handle) -> String`: the engine's and the bridge's counters as JSON
+/// (from the published snapshot: never waits for a running task).
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_stats<'l>(
     mut env: EnvUnowned<'l>,
@@ -306,9 +359,128 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_stats<'l>(
     handle: jlong,
 ) -> JString<'l> {
     entry(&mut env, "stats", |env| {
-        let json = SESSIONS.with(handle, |s| Ok(s.stats_json()))?;
+        let json = snapshot(handle)?.stats_json();
         Ok(JString::from_str(env, json)?)
     })
+}
+
+/// `setPosition(handle, tNs, position)`: moves the engine to `position` =
+/// `[x_m, y_m, floor, heading_rad]` (heading NaN = keep) now, without a
+/// restart. IllegalArgumentException for a bad array or a point off the
+/// site's floors, UnsupportedOperationException when the engine has no way
+/// to take a position.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_setPosition<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    handle: jlong,
+    t_ns: jlong,
+    position: JDoubleArray<'l>,
+) {
+    entry(&mut env, "setPosition", |env| {
+        let Some(v) = primitive_len(env, &position)? else {
+            return Err(BridgeError::IllegalArgument("position is null".into()));
+        };
+        if v != 4 {
+            return Err(BridgeError::IllegalArgument(format!(
+                "position: expected [x_m, y_m, floor, heading_rad], got {v} values"
+            )));
+        }
+        let mut buf = [0.0; 4];
+        position.get_region(env, 0, &mut buf)?;
+        let at = session::init_from_array(&buf)?;
+        with_session(handle, |s| s.set_position(t_ns, at))
+    })
+}
+
+/// `onWifiScan(handle, tNs, bssids, rssiDbm, freqMhz, seenTNs)`: one WiFi
+/// scan (`WifiManager.getScanResults()` after `SCAN_RESULTS_AVAILABLE_ACTION`).
+/// The four arrays must have the same length, at most `MAX_WIFI_RESULTS`;
+/// otherwise the scan is counted as rejected. Bad entries (BSSID not six hex
+/// pairs, non-finite RSSI, frequency <= 0, last seen after `tNs`) are counted
+/// and dropped. Never throws for bad data, only for a stale handle.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_onWifiScan<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    handle: jlong,
+    t_ns: jlong,
+    bssids: JObjectArray<'l, JString<'l>>,
+    rssi_dbm: JDoubleArray<'l>,
+    freq_mhz: JIntArray<'l>,
+    seen_t_ns: JLongArray<'l>,
+) {
+    entry(&mut env, "onWifiScan", |env| {
+        let live = SESSIONS.get(handle)?;
+        let n = if bssids.is_null() {
+            None
+        } else {
+            Some(bssids.len(env)?)
+        };
+        let lens = [
+            n,
+            primitive_len(env, &rssi_dbm)?,
+            primitive_len(env, &freq_mhz)?,
+            primitive_len(env, &seen_t_ns)?,
+        ];
+        let why = match lens {
+            [Some(n), ..] if lens.iter().any(|l| *l != Some(n)) => {
+                Some("WiFi arrays differ in length")
+            }
+            [Some(n), ..] if n > MAX_WIFI_RESULTS => {
+                Some("WiFi scan has more than MAX_WIFI_RESULTS results")
+            }
+            [Some(_), ..] => None,
+            _ => Some("WiFi scan with a null array"),
+        };
+        let Some(n) = lens[0].filter(|_| why.is_none()) else {
+            let why = why.unwrap_or("WiFi scan with a null array");
+            return live.call(handle, |s| {
+                s.reject_wifi_scan(why);
+                Ok(())
+            });
+        };
+        let mut rssi = vec![0.0; n];
+        let mut freq = vec![0; n];
+        let mut seen = vec![0; n];
+        rssi_dbm.get_region(env, 0, &mut rssi)?;
+        freq_mhz.get_region(env, 0, &mut freq)?;
+        seen_t_ns.get_region(env, 0, &mut seen)?;
+        let mut ids = Vec::with_capacity(n);
+        for i in 0..n {
+            let s = bssids.get_element(env, i)?;
+            let id = if s.is_null() {
+                None
+            } else {
+                let chars = s.mutf8_chars(env)?;
+                let bytes = chars.to_bytes();
+                (bytes.len() <= MAX_BSSID_BYTES)
+                    .then(|| String::from_utf8_lossy(bytes).into_owned())
+            };
+            env.delete_local_ref(s);
+            ids.push(id);
+        }
+        let entries = WifiEntries {
+            bssids: &ids,
+            rssi_dbm: &rssi,
+            freq_mhz: &freq,
+            seen_t_ns: &seen,
+        };
+        live.call(handle, |s| {
+            s.on_wifi(t_ns, &entries);
+            Ok(())
+        })
+    })
+}
+
+/// `poseLen() -> Int`: `POSE_LEN` of this library (the Kotlin side checks it
+/// against its own at load, so a stale libfpbp.so fails loudly).
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_poseLen<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+) -> jint {
+    entry(&mut env, "poseLen", |_| Ok(POSE_LEN as jint))
 }
 
 /// `engineNames() -> String`: the names `start` accepts, comma-separated.
@@ -335,5 +507,44 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
 ) {
     entry(&mut env, "selfTestPanic", |_| -> Result<(), BridgeError> {
         panic!("self-test panic")
+    })
+}
+
+/// `selfTestStartBlocking() -> handle`: a test double (not an engine name)
+/// whose every task run waits at the process's self-test gate
+/// (`selfTestGate`), so host tests can show that reads do not wait for a
+/// running task. Starts with a pose at t = 1.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestStartBlocking<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+) -> jlong {
+    entry(&mut env, "selfTestStartBlocking", |_| {
+        let engine = selftest::BlockingEngine::new(std::sync::Arc::clone(&selftest::GATE));
+        SESSIONS.insert(Live::new(Session::from_engine(Box::new(engine))))
+    })
+}
+
+/// `selfTestGate(open)`: opens or closes the self-test gate.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestGate<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    open: jboolean,
+) {
+    entry(&mut env, "selfTestGate", |_| {
+        selftest::GATE.set_open(open);
+        Ok(())
+    })
+}
+
+/// `selfTestBlockedTasks() -> Int`: task runs waiting at the self-test gate.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestBlockedTasks<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+) -> jint {
+    entry(&mut env, "selfTestBlockedTasks", |_| {
+        Ok(jint::try_from(selftest::GATE.blocked()).unwrap_or(jint::MAX))
     })
 }

@@ -2,22 +2,23 @@
 //!
 //! Handles are ids from an atomic counter, never reused, so a stale id can
 //! only miss (IllegalStateException), never reach freed or foreign memory.
-//! Each call clones the session's `Arc` under the read lock, drops the lock,
-//! then locks the session: calls on different handles never wait for each
-//! other, and `remove` (stop) while a call is in flight is safe: the session
-//! dies when the last in-flight call drops its `Arc`.
+//! Each call clones the entry's `Arc` under the read lock and drops the lock
+//! before doing anything with it (the entry, [`crate::live::Live`], holds its
+//! own locks): calls on different handles never wait for each other, and
+//! `remove` (stop) while a call is in flight is safe: the entry dies when the
+//! last in-flight call drops its `Arc`.
 
 use std::collections::HashMap;
 use std::sync::atomic::{AtomicI64, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, RwLock};
+use std::sync::{Arc, RwLock};
 
 use crate::error::BridgeError;
 
-/// Live sessions by handle. `T` is the session type (generic for tests).
+/// Live entries by handle. `T` is the entry type (generic for tests).
 #[derive(Debug)]
 pub struct Registry<T> {
     next_id: AtomicI64,
-    live: RwLock<HashMap<i64, Arc<Mutex<T>>>>,
+    live: RwLock<HashMap<i64, Arc<T>>>,
 }
 
 impl<T> Default for Registry<T> {
@@ -37,32 +38,17 @@ impl<T> Registry<T> {
             .live
             .write()
             .map_err(|_| BridgeError::Internal("handle registry lock poisoned".into()))?;
-        live.insert(id, Arc::new(Mutex::new(value)));
+        live.insert(id, Arc::new(value));
         Ok(id)
     }
 
-    /// The session of `handle`, or IllegalState when it is unknown or stopped.
-    pub fn get(&self, handle: i64) -> Result<Arc<Mutex<T>>, BridgeError> {
+    /// The entry of `handle`, or IllegalState when it is unknown or stopped.
+    pub fn get(&self, handle: i64) -> Result<Arc<T>, BridgeError> {
         let live = self
             .live
             .read()
             .map_err(|_| BridgeError::Internal("handle registry lock poisoned".into()))?;
         live.get(&handle).cloned().ok_or_else(|| stale(handle))
-    }
-
-    /// Runs `f` on the session of `handle` under its lock.
-    pub fn with<R>(
-        &self,
-        handle: i64,
-        f: impl FnOnce(&mut T) -> Result<R, BridgeError>,
-    ) -> Result<R, BridgeError> {
-        let session = self.get(handle)?;
-        let mut guard: MutexGuard<'_, T> = session.lock().map_err(|_| {
-            BridgeError::Internal(format!(
-                "handle {handle}: an earlier call panicked inside the engine; stop() it and start a new one"
-            ))
-        })?;
-        f(&mut guard)
     }
 
     /// Removes `handle`; IllegalState when it is unknown or already stopped.
@@ -106,7 +92,7 @@ mod tests {
         assert_ne!(a, b);
         assert!(matches!(r.get(a), Err(BridgeError::IllegalState(_))));
         assert!(matches!(r.remove(a), Err(BridgeError::IllegalState(_))));
-        assert_eq!(r.with(b, |v| Ok(*v)).expect("with"), 2);
+        assert_eq!(*r.get(b).expect("get"), 2);
         assert!(matches!(r.get(0), Err(BridgeError::IllegalState(_))));
     }
 
@@ -116,27 +102,8 @@ mod tests {
         let h = r.insert(vec![1, 2, 3]).expect("insert");
         let in_flight = r.get(h).expect("get");
         r.remove(h).expect("remove");
-        assert_eq!(in_flight.lock().expect("lock").len(), 3);
+        assert_eq!(in_flight.len(), 3);
         assert!(r.is_empty());
-    }
-
-    #[test]
-    fn a_panic_under_the_lock_poisons_only_that_handle() {
-        let r: Arc<Registry<u8>> = Arc::new(Registry::default());
-        let h = r.insert(0).expect("insert");
-        let other = r.insert(7).expect("insert");
-        let r2 = Arc::clone(&r);
-        let joined = std::thread::spawn(move || {
-            let _ = r2.with(h, |_| -> Result<(), BridgeError> { panic!("boom") });
-        })
-        .join();
-        assert!(joined.is_err());
-        assert!(matches!(
-            r.with(h, |_| Ok(())),
-            Err(BridgeError::Internal(_))
-        ));
-        assert_eq!(r.with(other, |v| Ok(*v)).expect("other handle"), 7);
-        r.remove(h).expect("a poisoned handle can still be stopped");
     }
 
     #[test]

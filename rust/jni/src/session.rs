@@ -4,11 +4,13 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use fpbp_core::Vec2;
 use fpbp_core::engine::{
     Engine, EngineConfig, EngineData, EngineStats, InitialPosition, Pose, Task, build_engine_with,
 };
-use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent};
+use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent, WifiResult, WifiScan};
 use fpbp_core::fingerprint::FingerprintSet;
+use fpbp_core::site::GeoRef;
 
 use crate::error::BridgeError;
 use crate::site_loader;
@@ -17,15 +19,71 @@ use crate::site_loader;
 pub const TASK_GML: i32 = 0;
 pub const TASK_FUSION: i32 = 1;
 
-/// Number of doubles `getPose` writes: x, y, floor, heading, accuracy.
-pub const POSE_LEN: usize = 5;
+/// Layout of the pose array `getPose` writes (`NativeBridge.POSE_*` in Kotlin).
+pub mod pose_index {
+    pub const X_M: usize = 0;
+    pub const Y_M: usize = 1;
+    pub const FLOOR: usize = 2;
+    pub const HEADING_RAD: usize = 3;
+    pub const ACCURACY_M: usize = 4;
+    /// Probability that the floor is right, [0, 1].
+    pub const FLOOR_PROB: usize = 5;
+    /// `PoseSource::code()`: 0 radio, 1 dead reckoning, 2 fused.
+    pub const SOURCE: usize = 6;
+    /// WGS-84 through the site's georef; NaN when the site has none.
+    pub const LAT_DEG: usize = 7;
+    pub const LON_DEG: usize = 8;
+    /// Heading as a bearing from true north, degrees clockwise, [0, 360).
+    pub const BEARING_DEG: usize = 9;
+}
+
+/// Number of doubles `getPose` writes (the `pose_index` layout).
+pub const POSE_LEN: usize = 10;
+
+/// Most results one WiFi scan may carry (a dense office hears a few hundred).
+pub const MAX_WIFI_RESULTS: usize = 512;
+
+/// Longest BSSID text read from Java, bytes (`aa:bb:cc:dd:ee:ff` is 17).
+pub const MAX_BSSID_BYTES: usize = 64;
+
+/// What the bridge itself counted (beside the engine's counters).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct BridgeCounters {
+    /// Samples rejected before they reached the engine (unknown sensor
+    /// type, too few or non-finite values, missing array or id, bad WiFi
+    /// entries, WiFi scans with mismatched or oversized arrays).
+    pub rejected: u64,
+    /// WiFi scans handed to the engine, and the results they carried.
+    pub wifi_scans: u64,
+    pub wifi_results: u64,
+}
+
+/// The site's tie to WGS-84 and north, for lat/lon and bearings.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MapFrame {
+    pub georef: Option<GeoRef>,
+    pub map_from_enu_rad: f64,
+}
+
+/// What readers see without the engine's lock: the latest pose, x_B and
+/// counters, published after every call that holds the engine.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot {
+    pub engine: &'static str,
+    /// `task_period_ns` of `Task::Ble` and `Task::Fusion` (0 = no such task).
+    pub periods_ns: [i64; 2],
+    pub pose: Option<Pose>,
+    pub ble_position: Option<Pose>,
+    pub stats: EngineStats,
+    pub bridge: BridgeCounters,
+    pub frame: MapFrame,
+}
 
 /// A running engine plus what the bridge itself counted.
 pub struct Session {
     engine: Box<dyn Engine>,
-    /// Samples the bridge rejected before they reached the engine (unknown
-    /// sensor type, too few values, non-finite values, missing array).
-    bridge_rejected: u64,
+    frame: MapFrame,
+    counters: BridgeCounters,
 }
 
 /// Maps a Kotlin task code to the core's task.
@@ -80,6 +138,7 @@ impl Session {
         fingerprints_json: Option<&str>,
     ) -> Result<Session, BridgeError> {
         if !fpbp_core::engine::ENGINE_NAMES.contains(&engine) {
+            // the entry point's error policy clips the echoed name (clip_echoes)
             return Err(fpbp_core::Error::UnknownEngine(
                 engine.to_string(),
                 fpbp_core::engine::ENGINE_NAMES.join(", "),
@@ -101,16 +160,70 @@ impl Session {
             None => None,
         };
         let data = EngineData { fingerprints };
+        let frame = MapFrame {
+            georef: site.spec.georef,
+            map_from_enu_rad: site.spec.map_from_enu_rad,
+        };
         let engine = build_engine_with(engine, Arc::new(site), &config, init, &data)?;
-        Ok(Session::from_engine(engine))
+        Ok(Session {
+            frame,
+            ..Session::from_engine(engine)
+        })
     }
 
-    /// Wraps an already built engine.
+    /// Wraps an already built engine (no georef, MCS = ENU).
     pub fn from_engine(engine: Box<dyn Engine>) -> Session {
         Session {
             engine,
-            bridge_rejected: 0,
+            frame: MapFrame::default(),
+            counters: BridgeCounters::default(),
         }
+    }
+
+    /// What readers may see now (copied into the published snapshot after
+    /// every call that holds the engine).
+    pub fn snapshot(&self) -> Snapshot {
+        Snapshot {
+            engine: self.engine.name(),
+            periods_ns: [
+                self.task_period_ns(Task::Ble),
+                self.task_period_ns(Task::Fusion),
+            ],
+            pose: self.engine.pose(),
+            ble_position: self.engine.ble_position(),
+            stats: self.engine.stats(),
+            bridge: self.counters,
+            frame: self.frame,
+        }
+    }
+
+    /// Moves the engine to `at` now. An engine that refuses (the core's
+    /// default) gives `Unsupported`, a bad point `IllegalArgument`.
+    pub fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<(), BridgeError> {
+        self.engine.set_position(t_ns, at).map_err(|e| match e {
+            fpbp_core::Error::Unsupported(m) => BridgeError::Unsupported(m),
+            other => other.into(),
+        })
+    }
+
+    /// Hands one WiFi scan to the engine: the entries [`wifi_results`]
+    /// accepts; the others are counted. A scan whose every entry was bad is
+    /// not forwarded (an empty input scan is: it says nothing was heard).
+    pub fn on_wifi(&mut self, t_ns: i64, entries: &WifiEntries<'_>) {
+        let (results, rejected) = wifi_results(t_ns, entries);
+        self.counters.rejected += rejected;
+        if results.is_empty() && !entries.bssids.is_empty() {
+            return;
+        }
+        self.counters.wifi_scans += 1;
+        self.counters.wifi_results += results.len() as u64;
+        self.engine.on_wifi(&WifiScan { t_ns, results });
+    }
+
+    /// Counts a WiFi scan the bridge could not read at all (null or
+    /// mismatched arrays, more than [`MAX_WIFI_RESULTS`] results).
+    pub fn reject_wifi_scan(&mut self, why: &str) {
+        self.reject(why);
     }
 
     /// Forwards one sensor sample; a bad one is counted, never an error.
@@ -177,14 +290,9 @@ impl Session {
             .unwrap_or(0)
     }
 
-    /// The latest pose.
+    /// The latest pose (readers use the published [`Snapshot`] instead).
     pub fn pose(&self) -> Option<Pose> {
         self.engine.pose()
-    }
-
-    /// The last BLE-only position (x_B).
-    pub fn ble_position(&self) -> Option<Pose> {
-        self.engine.ble_position()
     }
 
     /// The engine's name.
@@ -192,40 +300,104 @@ impl Session {
         self.engine.name()
     }
 
-    /// Engine counters plus the bridge's own rejections, as JSON.
+    fn reject(&mut self, why: &str) {
+        self.counters.rejected += 1;
+        if self.counters.rejected.is_power_of_two() {
+            log::debug!("rejected input #{}: {why}", self.counters.rejected);
+        }
+    }
+}
+
+impl Snapshot {
+    /// Engine counters plus the bridge's own, as JSON.
     pub fn stats_json(&self) -> String {
-        let mut stats: EngineStats = self.engine.stats();
-        stats.rejected_inputs += self.bridge_rejected;
+        let stats = &self.stats;
         serde_json::json!({
-            "engine": self.engine.name(),
+            "engine": self.engine,
             "sensor_events": stats.sensor_events,
             "ble_observations": stats.ble_observations,
             "unknown_beacons": stats.unknown_beacons,
-            "rejected_inputs": stats.rejected_inputs,
-            "bridge_rejected": self.bridge_rejected,
+            "rejected_inputs": stats.rejected_inputs + self.bridge.rejected,
+            "bridge_rejected": self.bridge.rejected,
+            "wifi_scans": self.bridge.wifi_scans,
+            "wifi_results": self.bridge.wifi_results,
             "steps": stats.steps,
             "no_fix": stats.no_fix,
         })
         .to_string()
     }
-
-    fn reject(&mut self, why: &str) {
-        self.bridge_rejected += 1;
-        if self.bridge_rejected.is_power_of_two() {
-            log::debug!("rejected input #{}: {why}", self.bridge_rejected);
-        }
-    }
 }
 
-/// Writes `pose` into `out` as `[x, y, floor, heading, accuracy]`.
-pub fn pose_to_array(pose: &Pose) -> [f64; POSE_LEN] {
-    [
-        pose.x_m,
-        pose.y_m,
-        f64::from(pose.floor),
-        pose.heading_rad,
-        pose.accuracy_m,
-    ]
+/// One WiFi scan as the Java arrays gave it (same lengths, checked by the caller).
+pub struct WifiEntries<'a> {
+    /// BSSIDs; `None` for a null element or one longer than [`MAX_BSSID_BYTES`].
+    pub bssids: &'a [Option<String>],
+    pub rssi_dbm: &'a [f64],
+    pub freq_mhz: &'a [i32],
+    pub seen_t_ns: &'a [i64],
+}
+
+/// `aa:bb:cc:dd:ee:ff` (lower case) from any case, with `:` or `-`; `None`
+/// when it is not six hex pairs.
+pub fn normalize_bssid(s: &str) -> Option<String> {
+    let parts: Vec<&str> = s.split([':', '-']).collect();
+    let ok = parts.len() == 6
+        && parts
+            .iter()
+            .all(|p| p.len() == 2 && p.bytes().all(|b| b.is_ascii_hexdigit()));
+    ok.then(|| parts.join(":").to_ascii_lowercase())
+}
+
+/// The valid results of a scan at `t_ns` and the number of bad entries:
+/// a BSSID that is not six hex pairs, a non-finite RSSI, a frequency <= 0
+/// MHz, or a last-seen time after the scan.
+pub fn wifi_results(t_ns: i64, e: &WifiEntries<'_>) -> (Vec<WifiResult>, u64) {
+    let n = e
+        .bssids
+        .len()
+        .min(e.rssi_dbm.len())
+        .min(e.freq_mhz.len())
+        .min(e.seen_t_ns.len());
+    let mut out = Vec::with_capacity(n);
+    let mut rejected = 0;
+    for i in 0..n {
+        let bssid = e.bssids[i].as_deref().and_then(normalize_bssid);
+        let (rssi, freq, seen) = (e.rssi_dbm[i], e.freq_mhz[i], e.seen_t_ns[i]);
+        match bssid {
+            Some(bssid) if rssi.is_finite() && freq > 0 && seen <= t_ns => out.push(WifiResult {
+                bssid,
+                rssi_dbm: rssi,
+                freq_mhz: freq as u32,
+                seen_t_ns: seen,
+            }),
+            _ => rejected += 1,
+        }
+    }
+    (out, rejected)
+}
+
+/// Writes `pose` in the [`pose_index`] layout; lat/lon through `frame`'s
+/// georef (NaN without one), the heading also as a bearing from north.
+pub fn pose_to_array(pose: &Pose, frame: &MapFrame) -> [f64; POSE_LEN] {
+    let (lat, lon) = match &frame.georef {
+        Some(g) => {
+            fpbp_core::geo::wgs84_from_mcs(g, frame.map_from_enu_rad, Vec2::new(pose.x_m, pose.y_m))
+        }
+        None => (f64::NAN, f64::NAN),
+    };
+    let mut a = [0.0; POSE_LEN];
+    a[pose_index::X_M] = pose.x_m;
+    a[pose_index::Y_M] = pose.y_m;
+    a[pose_index::FLOOR] = f64::from(pose.floor);
+    a[pose_index::HEADING_RAD] = pose.heading_rad;
+    a[pose_index::ACCURACY_M] = pose.accuracy_m;
+    a[pose_index::FLOOR_PROB] = pose.floor_prob;
+    a[pose_index::SOURCE] = f64::from(pose.source.code());
+    a[pose_index::LAT_DEG] = lat;
+    a[pose_index::LON_DEG] = lon;
+    a[pose_index::BEARING_DEG] =
+        fpbp_core::geo::bearing_deg_from_mcs(pose.heading_rad, frame.map_from_enu_rad);
+    a
 }
 
 #[cfg(test)]
@@ -239,6 +411,7 @@ mod tests {
         sensors: Vec<SensorEvent>,
         ble: Vec<BleObservation>,
         gnss: Vec<GnssFix>,
+        wifi: Vec<WifiScan>,
         tasks: Vec<(Task, i64)>,
     }
 
@@ -294,7 +467,8 @@ mod tests {
         s.on_ble(16, Some("mac:00:00:00:00:00:01".into()), -70.0, f64::NAN);
         s.on_gnss(17, f64::NAN, 11.0, [f64::NAN; 4]);
         s.on_gnss(18, 49.0, 11.0, [300.0, f64::NAN, f64::NAN, f64::NAN]);
-        let stats: serde_json::Value = serde_json::from_str(&s.stats_json()).expect("stats JSON");
+        let stats: serde_json::Value =
+            serde_json::from_str(&s.snapshot().stats_json()).expect("stats JSON");
         assert_eq!(stats["sensor_events"], 1);
         assert_eq!(stats["ble_observations"], 1);
         assert_eq!(stats["bridge_rejected"], 6);
@@ -317,6 +491,9 @@ mod tests {
         }
         fn on_gnss(&mut self, f: &GnssFix) {
             self.0.lock().expect("spy").on_gnss(f);
+        }
+        fn on_wifi(&mut self, w: &WifiScan) {
+            self.0.lock().expect("spy").wifi.push(w.clone());
         }
         fn run_task(&mut self, _: Task, _: i64) {}
         fn task_period_ns(&self, _: Task) -> Option<i64> {
@@ -369,7 +546,129 @@ mod tests {
         s.run_task(Task::Fusion, 42);
         let p = s.pose().expect("pose after a task");
         assert_eq!(p.t_ns, 42);
-        assert_eq!(pose_to_array(&p), [1.0, 2.0, -1.0, 0.5, 3.0]);
+        let a = pose_to_array(&p, &MapFrame::default());
+        assert_eq!(a[..7], [1.0, 2.0, -1.0, 0.5, 3.0, 1.0, 2.0]);
+        assert!(a[pose_index::LAT_DEG].is_nan() && a[pose_index::LON_DEG].is_nan());
+        // heading 0.5 rad from the MCS x axis (east here): bearing 90 - 28.6 deg
+        assert!((a[pose_index::BEARING_DEG] - (90.0 - 0.5f64.to_degrees())).abs() < 1e-12);
+        assert_eq!(s.snapshot().pose, Some(p));
+    }
+
+    #[test]
+    fn lat_lon_and_bearing_follow_the_site_frame() {
+        let g = GeoRef {
+            lat_deg: 48.0,
+            lon_deg: 11.0,
+            x_m: 10.0,
+            y_m: 20.0,
+        };
+        let frame = MapFrame {
+            georef: Some(g),
+            map_from_enu_rad: 0.3,
+        };
+        let pose = Pose {
+            t_ns: 1,
+            x_m: 35.0,
+            y_m: -4.0,
+            floor: 0,
+            heading_rad: 0.3 + std::f64::consts::FRAC_PI_2,
+            accuracy_m: 1.0,
+            floor_prob: 0.75,
+            source: fpbp_core::engine::PoseSource::DeadReckoning,
+        };
+        let a = pose_to_array(&pose, &frame);
+        let (lat, lon) = fpbp_core::geo::wgs84_from_mcs(&g, 0.3, Vec2::new(35.0, -4.0));
+        assert_eq!((a[pose_index::LAT_DEG], a[pose_index::LON_DEG]), (lat, lon));
+        let back = fpbp_core::geo::mcs_from_wgs84(&g, 0.3, lat, lon);
+        assert!((back - Vec2::new(35.0, -4.0)).norm() < 1e-6);
+        // MCS heading = ENU north rotated into the MCS: bearing 0
+        assert!(a[pose_index::BEARING_DEG].abs() < 1e-9 || a[pose_index::BEARING_DEG] > 359.999);
+        assert_eq!(
+            (a[pose_index::FLOOR_PROB], a[pose_index::SOURCE]),
+            (0.75, 1.0)
+        );
+    }
+
+    #[test]
+    fn wifi_entries_are_normalized_and_bad_ones_counted() {
+        let bssids = [
+            Some("AA:BB:CC:DD:EE:01".to_string()),
+            Some("aa-bb-cc-dd-ee-02".to_string()),
+            None,
+            Some("not a bssid".to_string()),
+            Some("aa:bb:cc:dd:ee:05".to_string()),
+            Some("aa:bb:cc:dd:ee:06".to_string()),
+            Some("aa:bb:cc:dd:ee:07".to_string()),
+        ];
+        let rssi = [-60.0, -70.5, -50.0, -50.0, f64::NAN, -80.0, -81.0];
+        let freq = [2412, 5180, 2412, 2412, 2412, 0, 2437];
+        let seen = [90, 100, 100, 100, 100, 100, 101];
+        let e = WifiEntries {
+            bssids: &bssids,
+            rssi_dbm: &rssi,
+            freq_mhz: &freq,
+            seen_t_ns: &seen,
+        };
+        let (r, bad) = wifi_results(100, &e);
+        assert_eq!(bad, 5);
+        assert_eq!(r.len(), 2);
+        assert_eq!(
+            (
+                r[0].bssid.as_str(),
+                r[0].rssi_dbm,
+                r[0].freq_mhz,
+                r[0].seen_t_ns
+            ),
+            ("aa:bb:cc:dd:ee:01", -60.0, 2412, 90)
+        );
+        assert_eq!(r[1].bssid, "aa:bb:cc:dd:ee:02");
+        let shared = std::sync::Arc::new(std::sync::Mutex::new(Recorder::default()));
+        let mut s = Session::from_engine(Box::new(Spy(shared.clone())));
+        s.on_wifi(100, &e);
+        let none: [Option<String>; 1] = [None];
+        let all_bad = WifiEntries {
+            bssids: &none,
+            rssi_dbm: &rssi[..1],
+            freq_mhz: &freq[..1],
+            seen_t_ns: &seen[..1],
+        };
+        s.on_wifi(200, &all_bad);
+        let empty = WifiEntries {
+            bssids: &[],
+            rssi_dbm: &[],
+            freq_mhz: &[],
+            seen_t_ns: &[],
+        };
+        s.on_wifi(300, &empty);
+        s.reject_wifi_scan("lengths differ");
+        let r = shared.lock().expect("spy");
+        assert_eq!(
+            r.wifi
+                .iter()
+                .map(|w| (w.t_ns, w.results.len()))
+                .collect::<Vec<_>>(),
+            [(100, 2), (300, 0)]
+        );
+        let stats: serde_json::Value =
+            serde_json::from_str(&s.snapshot().stats_json()).expect("stats JSON");
+        assert_eq!(stats["wifi_scans"], 2);
+        assert_eq!(stats["wifi_results"], 2);
+        assert_eq!(stats["bridge_rejected"], 5 + 1 + 1);
+    }
+
+    #[test]
+    fn set_position_refused_by_an_engine_is_unsupported() {
+        let mut s = Session::from_engine(Box::new(Recorder::default()));
+        let at = InitialPosition {
+            x_m: 1.0,
+            y_m: 2.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        match s.set_position(5, at) {
+            Err(BridgeError::Unsupported(m)) => assert!(m.contains("recorder"), "{m}"),
+            other => panic!("unexpected {other:?}"),
+        }
     }
 
     #[test]

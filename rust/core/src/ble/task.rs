@@ -194,6 +194,14 @@ impl BleTask {
         Some(fix)
     }
 
+    /// Forgets the mean filter's history and the last x_B (the caller moved
+    /// the user to a known point: positions from before must not be averaged
+    /// into the next x_B). The front end's RSSI windows are kept.
+    pub fn reset_position(&mut self) {
+        self.mean.clear();
+        self.last = None;
+    }
+
     /// The last x_B.
     pub fn last(&self) -> Option<BleFix> {
         self.last

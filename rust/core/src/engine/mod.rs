@@ -140,7 +140,7 @@ pub trait Engine: Send {
     /// code) without a restart. The default refuses: engines that support it
     /// override it.
     fn set_position(&mut self, _t_ns: i64, _at: InitialPosition) -> crate::Result<()> {
-        Err(crate::Error::Input(format!(
+        Err(crate::Error::Unsupported(format!(
             "engine `{}` does not support set_position",
             self.name()
         )))

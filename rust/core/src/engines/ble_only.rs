@@ -7,6 +7,7 @@
 
 use std::sync::Arc;
 
+use crate::Result;
 use crate::Vec2;
 use crate::ble::{BeaconRegistry, BleFrontEnd, BleTask, PositionerKind};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
@@ -36,6 +37,9 @@ pub struct BleOnlyEngine {
     pose: Option<Pose>,
     /// Start position (used as the previous position of the first run only).
     init: Option<InitialPosition>,
+    /// Whether `init` came from `set_position` since the last run.
+    given: bool,
+    site: Arc<Site>,
     stats: EngineStats,
 }
 
@@ -53,6 +57,8 @@ impl BleOnlyEngine {
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
             init,
+            given: false,
+            site,
             stats: EngineStats::default(),
         }
     }
@@ -140,12 +146,40 @@ impl Engine for BleOnlyEngine {
         }
     }
 
+    /// The pose becomes `at` now; the mean filter forgets the fixes from
+    /// before and the next run searches around `at` (its previous position).
+    fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
+        crate::engines::given_position::check(self.kind.name(), &self.site, &at)?;
+        self.task.reset_position();
+        let heading_rad = at
+            .heading_rad
+            .or(self.pose.map(|p| p.heading_rad))
+            .unwrap_or(0.0);
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: at.x_m,
+            y_m: at.y_m,
+            floor: at.floor,
+            heading_rad,
+            accuracy_m: 2.0,
+            floor_prob: 1.0,
+            source: crate::engine::PoseSource::Radio,
+        });
+        self.init = Some(at);
+        self.given = true;
+        Ok(())
+    }
+
     fn run_task(&mut self, task: Task, t_ns: i64) {
         if task != Task::Ble {
             return;
         }
+        // the start (or a position set since the last run) is the previous
+        // position of the next run only
+        let given = std::mem::take(&mut self.given);
         let prev = match (self.pose, self.init.take()) {
             (None, Some(i)) => Some(Vec2::new(i.x_m, i.y_m)),
+            (Some(_), Some(i)) if given => Some(Vec2::new(i.x_m, i.y_m)),
             _ => None,
         };
         match self.task.run(t_ns, prev) {
@@ -272,6 +306,46 @@ mod tests {
                     .iter()
                     .all(|p| p.x_m.is_finite() && p.y_m.is_finite())
             );
+        }
+    }
+
+    /// A tap sets the pose at once; the next fix starts a fresh mean filter
+    /// (the tap point is only its search prior), so it lies near the truth.
+    #[test]
+    fn set_position_sets_the_pose_and_restarts_the_mean_filter() {
+        for name in ["gml", "trilat", "frbw", "ml", "wcentroid"] {
+            let mut e = build_engine(name, site(&SQUARE), &EngineConfig::default(), None).unwrap();
+            let mut events = walk(&SQUARE, None, 6).into_iter();
+            for ev in events.by_ref().take(60) {
+                if let LogEvent::Ble(o) = ev {
+                    e.on_ble(&o);
+                }
+            }
+            e.run_task(Task::Ble, 1_000_000_000);
+            let at = InitialPosition {
+                x_m: 30.0,
+                y_m: 20.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            e.set_position(1_100_000_000, at).unwrap();
+            let p = e.pose().unwrap();
+            assert_eq!(
+                (p.t_ns, p.x_m, p.y_m),
+                (1_100_000_000, 30.0, 20.0),
+                "{name}"
+            );
+            assert!(
+                e.set_position(1_200_000_000, InitialPosition { floor: 9, ..at })
+                    .is_err()
+            );
+            e.run_task(Task::Ble, 2_000_000_000);
+            let p = e.pose().unwrap();
+            assert_eq!(p.t_ns, 2_000_000_000, "{name}");
+            // eq. 22 would average the fix with the tap point; after the reset
+            // the output is the fix itself (y* = x_B)
+            let b = e.ble_position().unwrap();
+            assert!(p.x_m.is_finite() && (p.x_m - b.x_m).abs() < 1e-9, "{name}");
         }
     }
 

@@ -98,6 +98,11 @@ impl BleSide {
     pub fn last(&self) -> Option<BleFix> {
         self.task.last()
     }
+
+    /// Forgets the mean filter and the last x_B (see [`BleTask::reset_position`]).
+    pub fn reset_position(&mut self) {
+        self.task.reset_position();
+    }
 }
 
 /// The fusion task: PDR, particle filter and (for `fpbp`) PPC.
@@ -196,6 +201,25 @@ impl FusionSide {
         self.pdr.on_sensor(e);
     }
 
+    /// Moves the filter to a caller's position now (a tap, a QR code): the
+    /// particles restart on the point as for a given start, the steps the PDR
+    /// detected before it are dropped, and the pose is published at `t_ns`.
+    /// The heading is kept when `at` has none.
+    pub fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
+        let name = if self.use_ppc { "fpbp" } else { "bp" };
+        super::given_position::check(name, &self.site, &at)?;
+        drop(self.pdr.take_steps());
+        self.floor = at.floor;
+        if let Some(h) = at.heading_rad {
+            self.heading_rad = h;
+        }
+        self.weighted_fix_t_ns = None;
+        self.innovation_mean_m = None;
+        self.innovation_fix_t_ns = None;
+        self.start(Vec2::new(at.x_m, at.y_m), Some(t_ns), true);
+        Ok(())
+    }
+
     /// Starts the particles at `at`: on the point for a caller's start
     /// (`given`), spread over `init_spread_m` for a start from BLE fixes.
     fn start(&mut self, at: Vec2, t_ns: Option<i64>, given: bool) {
@@ -221,6 +245,13 @@ impl FusionSide {
     }
 
     fn publish(&mut self, t_ns: i64, pos: Vec2) {
+        // Fused while an x_B weighted the particles within `ble_max_age_s`;
+        // otherwise the pose rests on the start and the steps since.
+        let max_age_ns = (self.cfg.ble_max_age_s * 1e9) as i64;
+        let source = match self.weighted_fix_t_ns {
+            Some(f) if t_ns.saturating_sub(f) <= max_age_ns => crate::engine::PoseSource::Fused,
+            _ => crate::engine::PoseSource::DeadReckoning,
+        };
         self.pose = Some(Pose {
             t_ns,
             x_m: pos.x,
@@ -229,7 +260,7 @@ impl FusionSide {
             heading_rad: self.heading_rad,
             accuracy_m: self.pf.spread_m().max(0.5),
             floor_prob: 1.0,
-            source: crate::engine::PoseSource::Fused,
+            source,
         });
     }
 
@@ -571,6 +602,15 @@ impl Engine for FpbpEngine {
         self.stats.count_wifi(scan);
     }
 
+    /// The particles restart at `at`; the BLE side forgets its mean filter
+    /// and the x_B from before, so the next fix is computed around `at`.
+    fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
+        self.fusion.set_position(t_ns, at)?;
+        self.ble.reset_position();
+        self.x_b = None;
+        Ok(())
+    }
+
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
             Task::Ble => {
@@ -703,6 +743,72 @@ mod tests {
             track.push(Vec2::new(p.x_m, p.y_m));
         }
         (track, side)
+    }
+
+    /// A tap moves the filter without a restart: the pose is the tapped
+    /// point at once, every particle is there, the next steps start from it,
+    /// and a point off the site's floors is refused.
+    #[test]
+    fn set_position_moves_the_filter_now() {
+        let cfg = EngineConfig::default();
+        let mut side = corridor_side(&cfg);
+        for k in 1..=5i64 {
+            let t = k * 700_000_000;
+            side.run_steps(t, Some(fix(t, 1.0 + 0.7 * k as f64, 2.0)), &[(0.7, 0.0)]);
+        }
+        assert_eq!(
+            side.pose().unwrap().source,
+            crate::engine::PoseSource::Fused
+        );
+        let at = InitialPosition {
+            x_m: 15.0,
+            y_m: 2.5,
+            floor: 0,
+            heading_rad: Some(0.0),
+        };
+        side.set_position(4_000_000_000, at).unwrap();
+        let p = side.pose().unwrap();
+        assert_eq!(
+            (p.t_ns, p.x_m, p.y_m, p.floor),
+            (4_000_000_000, 15.0, 2.5, 0)
+        );
+        assert_eq!(p.source, crate::engine::PoseSource::DeadReckoning);
+        assert!(side.particles().iter().all(|q| *q == Vec2::new(15.0, 2.5)));
+        side.run_steps(4_700_000_000, None, &[(0.7, 0.0)]);
+        let p = side.pose().unwrap();
+        assert!(
+            (p.x_m - 15.7).abs() < 0.3 && (p.y_m - 2.5).abs() < 0.3,
+            "{p:?}"
+        );
+        let bad = InitialPosition { floor: 4, ..at };
+        let e = side.set_position(5_000_000_000, bad).unwrap_err();
+        assert!(e.to_string().contains("floor 4"), "{e}");
+        assert_eq!(
+            side.pose().unwrap().t_ns,
+            4_700_000_000,
+            "a refused position changed the pose"
+        );
+    }
+
+    /// Through the engine: the BLE side forgets x_B from before the tap.
+    #[test]
+    fn engine_set_position_clears_the_old_ble_fix() {
+        for name in ["fpbp", "bp"] {
+            let mut e =
+                crate::engine::build_engine(name, corridor_site(), &EngineConfig::default(), None)
+                    .unwrap();
+            assert!(e.pose().is_none());
+            let at = InitialPosition {
+                x_m: 3.0,
+                y_m: 2.0,
+                floor: 0,
+                heading_rad: None,
+            };
+            e.set_position(10, at).unwrap();
+            let p = e.pose().unwrap();
+            assert_eq!((p.t_ns, p.x_m, p.y_m), (10, 3.0, 2.0), "{name}");
+            assert!(e.ble_position().is_none(), "{name}");
+        }
     }
 
     #[test]

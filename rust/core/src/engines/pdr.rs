@@ -18,6 +18,7 @@ use crate::{Error, Result};
 /// Dead reckoning from a known start.
 #[derive(Debug, Clone)]
 pub struct PdrEngine {
+    site: Arc<Site>,
     pdr: Pdr,
     fusion_period_ns: i64,
     x_m: f64,
@@ -54,6 +55,7 @@ impl PdrEngine {
         }
         Ok(PdrEngine {
             pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            site,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             x_m: init.x_m,
             y_m: init.y_m,
@@ -90,6 +92,23 @@ impl Engine for PdrEngine {
     fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
         // This engine does not use WiFi: counted and ignored.
         self.stats.count_wifi(scan);
+    }
+
+    /// Dead reckoning restarts from `at` at `t_ns`: the distance walked (and
+    /// so the accuracy radius) starts again, steps detected before are dropped,
+    /// the heading is kept when `at` has none.
+    fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
+        super::given_position::check("pdr", &self.site, &at)?;
+        drop(self.pdr.take_steps());
+        self.x_m = at.x_m;
+        self.y_m = at.y_m;
+        self.floor = at.floor;
+        if let Some(h) = at.heading_rad {
+            self.heading_rad = h;
+        }
+        self.walked_m = 0.0;
+        self.last_task_t_ns = Some(t_ns);
+        Ok(())
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
@@ -161,6 +180,30 @@ mod tests {
     fn needs_an_initial_position() {
         let err = PdrEngine::new(open_site(), &EngineConfig::default(), None).unwrap_err();
         assert!(err.to_string().contains("initial position"), "{err}");
+    }
+
+    #[test]
+    fn set_position_restarts_dead_reckoning_there() {
+        let init = InitialPosition {
+            x_m: 10.0,
+            y_m: 5.0,
+            floor: 0,
+            heading_rad: Some(1.0),
+        };
+        let mut eng = PdrEngine::new(open_site(), &EngineConfig::default(), Some(init)).unwrap();
+        let at = InitialPosition {
+            x_m: 2.0,
+            y_m: 3.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        eng.set_position(77, at).unwrap();
+        let p = eng.pose().unwrap();
+        assert_eq!((p.t_ns, p.x_m, p.y_m, p.heading_rad), (77, 2.0, 3.0, 1.0));
+        assert_eq!(p.accuracy_m, PdrConfig::default().start_accuracy_m);
+        let bad = InitialPosition { floor: 2, ..at };
+        assert!(eng.set_position(78, bad).is_err());
+        assert_eq!(eng.pose().unwrap().t_ns, 77);
     }
 
     #[test]

@@ -2,12 +2,22 @@ package io.fpbp
 
 import java.util.concurrent.atomic.AtomicBoolean
 
+/** Defaults of the library, each in one place. */
+object FpbpDefaults {
+    /**
+     * The engine [FpbpEngine.start] and the Android [io.fpbp.android.FpbpPositioning]
+     * run when the app names none (the sample app uses it too).
+     */
+    const val ENGINE: String = "fpbp"
+}
+
 /**
  * A running positioning engine (one native handle).
  *
- * Feed it with [onSensor], [onBleScan] (and [onGnss]) from any thread, run its
- * two tasks with [TaskScheduler] (real time) or [LogClockDriver] (replay), read
- * [pose] from any thread. [close] is idempotent; any other call after it throws
+ * Feed it with [onSensor], [onBleScan], [onWifiScan] (and [onGnss]) from any
+ * thread, run its two tasks with [TaskScheduler] (real time) or
+ * [LogClockDriver] (replay), read [pose] from any thread: it never waits for
+ * a running task. [close] is idempotent; any other call after it throws
  * [IllegalStateException].
  */
 class FpbpEngine private constructor(
@@ -32,7 +42,7 @@ class FpbpEngine private constructor(
         fun start(
             siteJson: String,
             siteDir: String,
-            engine: String,
+            engine: String = FpbpDefaults.ENGINE,
             configJson: String = "",
             init: InitialPosition? = null,
             fingerprintsJson: String? = null,
@@ -87,16 +97,29 @@ class FpbpEngine private constructor(
     /** Period of the fusion task, ns; 0 when the engine has none. */
     val fusionPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_FUSION)
 
-    /** The latest pose, null before the first fix. */
+    /** One WiFi scan; see [NativeBridge.onWifiScan]. Bad entries are counted, not thrown. */
+    fun onWifiScan(tNs: Long, bssids: Array<String?>, rssiDbm: DoubleArray, freqMhz: IntArray, seenTNs: LongArray) =
+        NativeBridge.onWifiScan(handle, tNs, bssids, rssiDbm, freqMhz, seenTNs)
+
+    /**
+     * Moves the engine to [at] at [tNs] without a restart (a tap, a QR code).
+     * Throws [IllegalArgumentException] for a point off the site's floors and
+     * [UnsupportedOperationException] when the engine cannot take a position.
+     */
+    fun setPosition(tNs: Long, at: InitialPosition) = NativeBridge.setPosition(handle, tNs, at.toNative())
+
+    /** The latest pose, null before the first fix. Never waits for a running task. */
     fun pose(): Pose? {
         val out = DoubleArray(NativeBridge.POSE_LEN)
-        return Pose.fromNative(NativeBridge.getPose(handle, out), out)
+        val t = LongArray(1)
+        return if (NativeBridge.getPose(handle, out, t)) Pose.fromNative(t[0], out) else null
     }
 
     /** The last BLE-only position (x_B), null when the engine has none. */
     fun blePosition(): Pose? {
         val out = DoubleArray(NativeBridge.POSE_LEN)
-        return Pose.fromNative(NativeBridge.getBlePosition(handle, out), out)
+        val t = LongArray(1)
+        return if (NativeBridge.getBlePosition(handle, out, t)) Pose.fromNative(t[0], out) else null
     }
 
     /** Input/output counters as JSON (rejected samples are counted here). */

@@ -16,14 +16,37 @@ object NativeBridge {
     /** Task code of the fusion (PF + PPC) task. */
     const val TASK_FUSION: Int = 1
 
-    /** Returned by [getPose] / [getBlePosition] before the first fix. */
-    const val NO_POSE: Long = Long.MIN_VALUE
+    /** Doubles written by [getPose] (layout: the `POSE_*` indices; rust/jni `session::pose_index`). */
+    const val POSE_LEN: Int = 10
+    const val POSE_X_M: Int = 0
+    const val POSE_Y_M: Int = 1
+    const val POSE_FLOOR: Int = 2
+    const val POSE_HEADING_RAD: Int = 3
+    const val POSE_ACCURACY_M: Int = 4
+    const val POSE_FLOOR_PROB: Int = 5
 
-    /** Doubles written by [getPose]: x_m, y_m, floor, heading_rad, accuracy_m. */
-    const val POSE_LEN: Int = 5
+    /** `PoseSource::code()`: 0 radio, 1 dead reckoning, 2 fused. */
+    const val POSE_SOURCE: Int = 6
+
+    /** WGS-84 through the site's georef; NaN when the site has none. */
+    const val POSE_LAT_DEG: Int = 7
+    const val POSE_LON_DEG: Int = 8
+
+    /** Heading as a bearing from true north, degrees clockwise in [0, 360). */
+    const val POSE_BEARING_DEG: Int = 9
+
+    /** Most results [onWifiScan] takes in one scan (rust/jni `MAX_WIFI_RESULTS`). */
+    const val MAX_WIFI_RESULTS: Int = 512
 
     init {
         System.loadLibrary("fpbp")
+        val native = poseLen()
+        if (native != POSE_LEN) {
+            throw FpbpNativeException(
+                "libfpbp writes poses of $native doubles, this library expects $POSE_LEN: " +
+                    "the native library and the Kotlin library come from different builds",
+            )
+        }
     }
 
     /**
@@ -72,18 +95,62 @@ object NativeBridge {
     /** The engine's period of [task] ([TASK_GML] or [TASK_FUSION]), ns; 0 if it has none. */
     @JvmStatic external fun taskPeriodNs(handle: Long, task: Int): Long
 
-    /** Writes the latest pose into [out] (size >= [POSE_LEN]) and returns its time, or [NO_POSE]. */
-    @JvmStatic external fun getPose(handle: Long, out: DoubleArray): Long
+    /**
+     * Writes the latest pose into [out] (size >= [POSE_LEN]) and its time (ns)
+     * into [outTimeNs]`[0]`; false before the first fix (both untouched).
+     * Never waits for a running task (it reads the pose published after the
+     * engine's last call).
+     */
+    @JvmStatic external fun getPose(handle: Long, out: DoubleArray, outTimeNs: LongArray): Boolean
 
     /** Like [getPose] for the last BLE-only position (x_B). */
-    @JvmStatic external fun getBlePosition(handle: Long, out: DoubleArray): Long
+    @JvmStatic external fun getBlePosition(handle: Long, out: DoubleArray, outTimeNs: LongArray): Boolean
 
-    /** The engine's input/output counters as JSON. */
+    /** The engine's input/output counters as JSON (never waits for a running task). */
     @JvmStatic external fun stats(handle: Long): String
+
+    /**
+     * Moves the engine to [position] = `[x_m, y_m, floor, heading_rad]`
+     * (heading NaN = keep) at [tNs], without a restart. Throws
+     * [IllegalArgumentException] for a bad array or a floor the site lacks,
+     * [UnsupportedOperationException] when the engine cannot take a position.
+     */
+    @JvmStatic external fun setPosition(handle: Long, tNs: Long, position: DoubleArray?)
+
+    /**
+     * One WiFi scan: parallel arrays of the same length (at most
+     * [MAX_WIFI_RESULTS]); [seenTNs] are the results' last-seen times (ns,
+     * `ScanResult.timestamp` x 1000). Bad entries and malformed scans are
+     * counted in [stats], never thrown.
+     */
+    @JvmStatic external fun onWifiScan(
+        handle: Long,
+        tNs: Long,
+        bssids: Array<String?>?,
+        rssiDbm: DoubleArray?,
+        freqMhz: IntArray?,
+        seenTNs: LongArray?,
+    )
+
+    /** [POSE_LEN] of the loaded native library (checked at load). */
+    @JvmStatic external fun poseLen(): Int
 
     /** Engine names [start] accepts, comma-separated. */
     @JvmStatic external fun engineNames(): String
 
     /** Panics inside the native library on purpose (tests: the panic must surface as [FpbpNativeException]). */
     @JvmStatic external fun selfTestPanic()
+
+    /**
+     * Test hook: starts a test double (not an engine) whose every task run
+     * waits at the self-test gate while it is closed ([selfTestGate]).
+     * Nothing but tests calls it.
+     */
+    @JvmStatic external fun selfTestStartBlocking(): Long
+
+    /** Test hook: opens or closes the self-test gate. */
+    @JvmStatic external fun selfTestGate(open: Boolean)
+
+    /** Test hook: task runs waiting at the self-test gate now. */
+    @JvmStatic external fun selfTestBlockedTasks(): Int
 }

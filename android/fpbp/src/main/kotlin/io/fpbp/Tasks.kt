@@ -12,8 +12,15 @@ import java.util.concurrent.atomic.AtomicReference
  * as a [Runnable]: each run calls the engine's BLE task at [clock]'s time.
  * It meets [FusionTask] only inside the engine, through x_B.
  */
-class GmlTask(private val engine: FpbpEngine, private val clock: Clock) : Runnable {
-    override fun run() = engine.runGml(clock.nowNs())
+class GmlTask(
+    private val engine: FpbpEngine,
+    private val clock: Clock,
+    private val afterRun: (() -> Unit)? = null,
+) : Runnable {
+    override fun run() {
+        engine.runGml(clock.nowNs())
+        afterRun?.invoke()
+    }
 }
 
 /**
@@ -36,15 +43,19 @@ class FusionTask(
  * Runs [GmlTask] and [FusionTask] on their own single-thread
  * [ScheduledExecutorService]s at the engine's periods (`tasks.gml_period_ms`,
  * `tasks.fusion_period_ms` of the config), as the paper's Runnables do.
+ * [onPose] receives the latest pose after each fusion run; [afterTask] is
+ * called after every run of either task (delivery checks: a BLE-only engine
+ * has no fusion task).
  *
  * A task that throws is not rescheduled by its executor; the first such error
  * is kept in [lastError] and both tasks stop. [close] stops the executors and
  * waits for a running task to end (call it before [FpbpEngine.close]).
  */
-class TaskScheduler(
+class TaskScheduler @JvmOverloads constructor(
     private val engine: FpbpEngine,
     private val clock: Clock,
     onPose: ((Pose) -> Unit)? = null,
+    afterTask: (() -> Unit)? = null,
 ) : AutoCloseable {
     private val gmlExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-gml"))
     private val fusionExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-fusion"))
@@ -69,8 +80,9 @@ class TaskScheduler(
     val fusionPeriodNs: Long = engine.fusionPeriodNs
 
     init {
-        schedule(gmlExecutor, GmlTask(engine, clock), gmlPeriodNs, gmlCount)
-        schedule(fusionExecutor, FusionTask(engine, clock, onPose), fusionPeriodNs, fusionCount)
+        schedule(gmlExecutor, GmlTask(engine, clock, afterTask), gmlPeriodNs, gmlCount)
+        val fusion = FusionTask(engine, clock, onPose)
+        schedule(fusionExecutor, Runnable { fusion.run(); afterTask?.invoke() }, fusionPeriodNs, fusionCount)
     }
 
     private fun schedule(executor: ScheduledExecutorService, task: Runnable, periodNs: Long, runs: AtomicLong) {
@@ -169,5 +181,6 @@ class LogClockDriver(
 internal fun samePoseIeee(a: Pose?, b: Pose?): Boolean {
     if (a == null || b == null) return a == null && b == null
     return a.tNs == b.tNs && a.xM == b.xM && a.yM == b.yM && a.floor == b.floor &&
-        a.headingRad == b.headingRad && a.accuracyM == b.accuracyM
+        a.headingRad == b.headingRad && a.accuracyM == b.accuracyM &&
+        a.floorProb == b.floorProb && a.source == b.source
 }

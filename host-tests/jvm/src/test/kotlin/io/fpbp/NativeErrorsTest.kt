@@ -44,6 +44,19 @@ class NativeErrorsTest {
     }
 
     @Test
+    fun aLongEchoedInputIsClippedAndItsLengthGiven() {
+        val name = "e".repeat(100_000)
+        val e = assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", name, null, null) }
+        val m = e.message ?: ""
+        assertTrue(m.length < 1_000, "message of ${m.length} chars")
+        assertMessage(e, "(100000 chars)", "fpbp")
+        val bad = site.replaceFirst("\"name\": \"host-test open floor\"", "\"name\": \"x\", \"${"k".repeat(50_000)}\": 3")
+        val e2 = assertThrows<IllegalArgumentException> { NativeBridge.start(bad, dir, "", TestSupport.engine, null, null) }
+        assertTrue((e2.message ?: "").length < 3_000, "message of ${e2.message?.length} chars")
+        assertMessage(e2, "(50000 chars)")
+    }
+
+    @Test
     fun unknownEngineListsTheKnownOnes() {
         val e = assertThrows<IllegalArgumentException> { NativeBridge.start(site, dir, "", "no-such-engine", null, null) }
         assertMessage(e, "no-such-engine")
@@ -80,7 +93,9 @@ class NativeErrorsTest {
             assertThrows<IllegalStateException> { NativeBridge.onBleScan(h, 0, "mac:00:00:00:00:00:01", -70.0, Double.NaN) }
             assertThrows<IllegalStateException> { NativeBridge.runGml(h, 0) }
             assertThrows<IllegalStateException> { NativeBridge.runFusion(h, 0) }
-            assertThrows<IllegalStateException> { NativeBridge.getPose(h, out) }
+            assertThrows<IllegalStateException> { NativeBridge.getPose(h, out, LongArray(1)) }
+            assertThrows<IllegalStateException> { NativeBridge.setPosition(h, 0, doubleArrayOf(1.0, 1.0, 0.0, Double.NaN)) }
+            assertThrows<IllegalStateException> { NativeBridge.onWifiScan(h, 0, arrayOf("aa:bb:cc:dd:ee:ff"), doubleArrayOf(-60.0), intArrayOf(2412), longArrayOf(0)) }
             assertThrows<IllegalStateException> { NativeBridge.stats(h) }
             assertThrows<IllegalStateException> { NativeBridge.stop(h) }
         }
@@ -120,7 +135,8 @@ class NativeErrorsTest {
     @Test
     fun shortPoseArrayAndBadTaskCodeAreIllegalArguments() {
         TestSupport.startOpen().use { e ->
-            assertThrows<IllegalArgumentException> { NativeBridge.getPose(e.handle, DoubleArray(4)) }
+            assertThrows<IllegalArgumentException> { NativeBridge.getPose(e.handle, DoubleArray(NativeBridge.POSE_LEN - 1), LongArray(1)) }
+            assertThrows<IllegalArgumentException> { NativeBridge.getPose(e.handle, DoubleArray(NativeBridge.POSE_LEN), LongArray(0)) }
             assertThrows<IllegalArgumentException> { NativeBridge.taskPeriodNs(e.handle, 7) }
         }
     }

@@ -29,13 +29,16 @@ class ReplayEqualityTest {
     private fun readReference(f: File): Ref {
         val lines = f.readLines()
         val head = lines.first()
-        require(head.startsWith("# fpbp-replay-reference 1")) { "$f: bad header `$head`" }
+        require(head.startsWith("# fpbp-replay-reference 2")) { "$f: bad header `$head`" }
         val engine = Regex("engine=(\\S+)").find(head)!!.groupValues[1]
         val events = Regex("events=(\\d+)").find(head)!!.groupValues[1].toInt()
         val stats = lines[1].removePrefix("# stats ")
         val track = lines.drop(2).filter { it.isNotBlank() }.map { l ->
             val p = l.split(' ')
-            Pose(p[0].toLong(), bits(p[1]), bits(p[2]), p[3].toInt(), bits(p[4]), bits(p[5]))
+            Pose(
+                p[0].toLong(), bits(p[1]), bits(p[2]), p[3].toInt(), bits(p[4]), bits(p[5]),
+                floorProb = bits(p[6]), source = PoseSource.fromCode(p[7].toInt()),
+            )
         }
         return Ref(engine, events, stats, track)
     }
@@ -48,6 +51,7 @@ class ReplayEqualityTest {
 
     private fun raw(p: Pose) = listOf(
         p.tNs, p.xM.toRawBits(), p.yM.toRawBits(), p.floor.toLong(), p.headingRad.toRawBits(), p.accuracyM.toRawBits(),
+        p.floorProb.toRawBits(), p.source.code.toLong(),
     )
 
     @Test

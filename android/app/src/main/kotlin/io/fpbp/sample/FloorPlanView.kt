@@ -14,14 +14,22 @@ import kotlin.math.min
 import kotlin.math.sin
 
 /**
- * Draws a floor's stylized plan scaled to fit, the live pose as a dot with a
- * heading tick, and its accuracy circle. Map frame (MCS, metres, y up) to plan
- * pixels (ICS, y down): x_I = x r, y_I = H - y r (FP-BP eq. 23), then the
- * view's fit transform. A tap reports the MCS point under the finger.
+ * Draws one floor's stylized plan scaled to fit, the live pose as a dot with
+ * a heading tick and its accuracy circle when the pose is on that floor.
+ * Map frame (MCS, metres, y up) to plan pixels (ICS, y down): x_I = x r,
+ * y_I = H - y r (FP-BP eq. 23), then the view's fit transform. A tap reports
+ * the MCS point under the finger.
  */
 class FloorPlanView(context: Context) : View(context) {
     private var plan: Bitmap? = null
     private var pixelsPerMeter = 1.0
+
+    /** The floor whose plan is shown (site.json id). */
+    var floorId: Int = 0
+        private set
+
+    /** Whether the last pose was drawn (it is on [floorId]). */
+    val poseDrawn: Boolean get() = pose?.floor == floorId
     private var pose: Pose? = null
     private var blePosition: Pose? = null
     private val fit = Matrix()
@@ -42,8 +50,9 @@ class FloorPlanView(context: Context) : View(context) {
         strokeWidth = 3f
     }
 
-    /** Shows [bitmap], a plan at [pixelsPerMeter] pixels per metre. */
-    fun setPlan(bitmap: Bitmap?, pixelsPerMeter: Double) {
+    /** Shows [bitmap], the plan of [floor] at [pixelsPerMeter] pixels per metre. */
+    fun setPlan(floor: Int, bitmap: Bitmap?, pixelsPerMeter: Double) {
+        floorId = floor
         plan = bitmap
         this.pixelsPerMeter = pixelsPerMeter
         requestLayout()
@@ -74,11 +83,11 @@ class FloorPlanView(context: Context) : View(context) {
         fit.postTranslate((width - bmp.width * s) / 2f, (height - bmp.height * s) / 2f)
         fit.invert(inverse)
         canvas.drawBitmap(bmp, fit, null)
-        blePosition?.let { b ->
+        blePosition?.takeIf { it.floor == floorId }?.let { b ->
             val p = toPlanPx(b.xM, b.yM)
             canvas.drawCircle(p[0], p[1], 8f, bleDot)
         }
-        val p = pose ?: return
+        val p = pose?.takeIf { it.floor == floorId } ?: return
         val c = toPlanPx(p.xM, p.yM)
         val r = (p.accuracyM * pixelsPerMeter * s).toFloat()
         canvas.drawCircle(c[0], c[1], r, circle)

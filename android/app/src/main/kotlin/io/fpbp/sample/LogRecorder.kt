@@ -1,26 +1,29 @@
 package io.fpbp.sample
 
+import io.fpbp.InitialPosition
 import io.fpbp.NativeLogWriter
+import io.fpbp.android.FpbpPositioning
 import java.io.File
 import java.util.concurrent.Executors
 import java.util.concurrent.TimeUnit
 
 /**
  * Records everything the engine is fed as a native v1 log (docs/formats.md)
- * that `fpbp replay` reads. Writes happen on one background thread, so the
- * sensor and BLE threads never wait for storage.
+ * that `fpbp replay` reads, through [FpbpPositioning.inputObserver]. Writes
+ * happen on one background thread, so the sensor and BLE threads never wait
+ * for storage. A set position is recorded as a truth mark. WiFi scans are
+ * not written: native log v1 has no WiFi lines yet.
  */
-class LogRecorder(val file: File, meta: Map<String, String>) : AutoCloseable {
+class LogRecorder(val file: File, meta: Map<String, String>) : FpbpPositioning.InputObserver, AutoCloseable {
     private val io = Executors.newSingleThreadExecutor { r -> Thread(r, "fpbp-recorder") }
     private val writer = NativeLogWriter(file.bufferedWriter(), meta)
 
-    fun sensor(type: Int, tNs: Long, values: DoubleArray) = io.execute { writer.sensor(tNs, type, values) }
+    override fun onSensor(type: Int, tNs: Long, values: DoubleArray) = io.execute { writer.sensor(tNs, type, values) }
 
-    fun ble(tNs: Long, beaconId: String, rssiDbm: Double, txPowerDbm: Double?) =
+    override fun onBle(tNs: Long, beaconId: String, rssiDbm: Double, txPowerDbm: Double?) =
         io.execute { writer.ble(tNs, beaconId, rssiDbm, txPowerDbm) }
 
-    /** A ground-truth mark (the user tapped where they stand). */
-    fun truth(tNs: Long, xM: Double, yM: Double, floor: Int) = io.execute { writer.truth(tNs, xM, yM, floor) }
+    override fun onSetPosition(tNs: Long, at: InitialPosition) = io.execute { writer.truth(tNs, at.xM, at.yM, at.floor) }
 
     override fun close() {
         io.execute { writer.close() }

@@ -1,20 +1,23 @@
 package io.fpbp.sample
 
-import android.Manifest
 import android.app.Activity
+import android.content.Intent
 import android.content.pm.PackageManager
 import android.graphics.BitmapFactory
-import android.hardware.SensorManager
 import android.os.Build
 import android.os.Bundle
-import android.os.SystemClock
+import android.os.Looper
 import android.widget.Button
 import android.widget.LinearLayout
 import android.widget.TextView
-import io.fpbp.Clock
-import io.fpbp.FpbpEngine
-import io.fpbp.InitialPosition
-import io.fpbp.TaskScheduler
+import io.fpbp.FpbpDefaults
+import io.fpbp.Pose
+import io.fpbp.PoseRequest
+import io.fpbp.PoseSubscription
+import io.fpbp.Radio
+import io.fpbp.RadioPermissions
+import io.fpbp.Status
+import io.fpbp.android.FpbpPositioning
 import org.json.JSONObject
 import java.io.File
 import java.text.SimpleDateFormat
@@ -22,157 +25,246 @@ import java.util.Date
 import java.util.Locale
 
 /**
- * The sample app: plain framework APIs, no AndroidX. Copies the demo site
- * (assets/demo) to app storage, starts the `fpbp` engine, feeds it BLE scans
- * and sensor samples, runs the GML and fusion tasks on their executors, shows
- * the plan with the live pose, and records a native log on demand. A tap on
- * the plan restarts the engine from there (and is recorded as a truth mark
- * while recording).
+ * The sample app: plain framework APIs, no AndroidX. Loads a site (the demo
+ * site from assets, or the folder named by the intent extra [EXTRA_SITE_DIR]),
+ * runs [FpbpPositioning] (which scans BLE, reads the sensors and runs the
+ * engine), draws the floor the pose is on (or the one picked with the floor
+ * button), shows the status line, sets the position with a tap, records a
+ * native log and shares it. The positioning survives configuration changes
+ * (onRetainNonConfigurationInstance); listeners are removed in onDestroy.
  */
 class MainActivity : Activity() {
-    private lateinit var planView: FloorPlanView
-    private lateinit var status: TextView
-    private lateinit var recordButton: Button
+    companion object {
+        /** The engine the sample runs: the library's default, changed in one place. */
+        const val ENGINE = FpbpDefaults.ENGINE
 
-    private var engine: FpbpEngine? = null
-    private var tasks: TaskScheduler? = null
-    private var ble: BleScanner? = null
-    private var sensors: SensorFeed? = null
-    @Volatile private var recorder: LogRecorder? = null
+        /** Intent extra: a folder with site.json (and its plans) to use instead of the demo site. */
+        const val EXTRA_SITE_DIR = "io.fpbp.sample.SITE_DIR"
+
+        const val REQUEST_PERMISSIONS = 1
+
+        /** The radios the sample listens to. */
+        val RADIOS = setOf(Radio.BLE)
+    }
+
+    private class Retained(val positioning: FpbpPositioning, val recorder: LogRecorder?, val manualFloor: Int?)
+
+    private lateinit var planView: FloorPlanView
+    private lateinit var statusView: TextView
+    private lateinit var poseView: TextView
+    private lateinit var floorButton: Button
+    private lateinit var recordButton: Button
+    private lateinit var shareButton: Button
+
+    /** The positioning (null when the site could not be loaded). */
+    var positioning: FpbpPositioning? = null
+        private set
+    private var poseSub: PoseSubscription? = null
+    private var statusSub: AutoCloseable? = null
+    private var recorder: LogRecorder? = null
+    private var lastLog: File? = null
 
     private lateinit var siteDir: File
     private var siteJson = ""
-    private var floorId = 0
+    private var floorIds: List<Int> = emptyList()
 
-    /** The clock of SensorEvent.timestamp and ScanResult.getTimestampNanos(). */
-    private val clock = Clock { SystemClock.elapsedRealtimeNanos() }
+    /** Floor picked with the floor button; null = follow the pose's floor. */
+    private var manualFloor: Int? = null
+    private var lastPose: Pose? = null
+
+    /** The floor whose plan is shown. */
+    val shownFloor: Int get() = planView.floorId
+
+    /** The status line's text. */
+    val statusText: String get() = statusView.text.toString()
+
+    /** The pose line's text. */
+    val poseText: String get() = poseView.text.toString()
 
     override fun onCreate(savedInstanceState: Bundle?) {
         super.onCreate(savedInstanceState)
+        buildUi()
+        try {
+            loadSite()
+        } catch (e: Exception) {
+            statusView.text = "cannot load the site: ${e.message}"
+            return
+        }
+        @Suppress("DEPRECATION")
+        val retained = lastNonConfigurationInstance as? Retained
+        val p = retained?.positioning ?: FpbpPositioning(
+            this,
+            FpbpPositioning.Site(siteJson, siteDir.path),
+            FpbpPositioning.Options(engine = ENGINE, radios = RADIOS),
+        )
+        positioning = p
+        recorder = retained?.recorder
+        manualFloor = retained?.manualFloor
+        recordButton.text = if (recorder != null) "Stop recording" else "Record log"
+        statusSub = p.addStatusListener(mainExecutorCompat()) { showStatus(it) }
+        poseSub = p.addPoseListener(PoseRequest.DEFAULT, Looper.getMainLooper()) { showPose(it) }
+        if (retained == null) {
+            try {
+                p.start()
+            } catch (e: IllegalArgumentException) {
+                statusView.text = "engine did not start: ${e.message}"
+                return
+            }
+            requestMissingPermissions()
+        }
+    }
+
+    private fun mainExecutorCompat(): java.util.concurrent.Executor =
+        if (Build.VERSION.SDK_INT >= 28) mainExecutor else java.util.concurrent.Executor { r -> planView.post(r) }
+
+    private fun buildUi() {
         planView = FloorPlanView(this)
-        status = TextView(this).apply { setPadding(16, 8, 16, 8) }
+        statusView = TextView(this).apply { setPadding(16, 8, 16, 0) }
+        poseView = TextView(this).apply { setPadding(16, 0, 16, 8) }
+        floorButton = Button(this).apply { setOnClickListener { nextFloor() } }
         recordButton = Button(this).apply {
             text = "Record log"
             setOnClickListener { toggleRecording() }
         }
+        shareButton = Button(this).apply {
+            text = "Share log"
+            isEnabled = false
+            setOnClickListener { shareLog() }
+        }
+        val buttons = LinearLayout(this).apply {
+            orientation = LinearLayout.HORIZONTAL
+            addView(floorButton)
+            addView(recordButton)
+            addView(shareButton)
+        }
         setContentView(
             LinearLayout(this).apply {
                 orientation = LinearLayout.VERTICAL
-                addView(status)
-                addView(recordButton)
+                addView(statusView)
+                addView(poseView)
+                addView(buttons)
                 addView(planView, LinearLayout.LayoutParams(LinearLayout.LayoutParams.MATCH_PARENT, 0, 1f))
             },
         )
         planView.onTap = { x, y -> onTap(x, y) }
-        siteDir = File(filesDir, "site")
-        try {
-            copyAssetDir("demo", siteDir)
-            siteJson = File(siteDir, "site.json").readText()
-            showPlan()
-        } catch (e: Exception) {
-            status.text = "cannot load the demo site: ${e.message}"
-            return
-        }
-        requestNeededPermissions()
     }
 
-    private fun neededPermissions(): List<String> =
-        if (Build.VERSION.SDK_INT >= Build.VERSION_CODES.S) {
-            listOf(Manifest.permission.BLUETOOTH_SCAN)
+    private fun loadSite() {
+        val given = intent?.getStringExtra(EXTRA_SITE_DIR)
+        siteDir = if (given != null) {
+            File(given)
         } else {
-            listOf(Manifest.permission.ACCESS_FINE_LOCATION)
+            File(filesDir, "site").also { copyAssetDir("demo", it) }
         }
+        siteJson = File(siteDir, "site.json").readText()
+        val floors = JSONObject(siteJson).getJSONArray("floors")
+        floorIds = (0 until floors.length()).map { floors.getJSONObject(it).getInt("id") }
+        showFloor(floorIds.first())
+    }
 
-    private fun requestNeededPermissions() {
-        val missing = neededPermissions().filter { checkSelfPermission(it) != PackageManager.PERMISSION_GRANTED }
-        if (missing.isEmpty()) startAll(null) else requestPermissions(missing.toTypedArray(), REQUEST_PERMISSIONS)
+    private fun showFloor(id: Int) {
+        val floors = JSONObject(siteJson).getJSONArray("floors")
+        val floor = (0 until floors.length()).map { floors.getJSONObject(it) }.first { it.getInt("id") == id }
+        val plan = floor.optString("plan", "")
+        val r = floor.optDouble("pixels_per_meter", 1.0)
+        val bitmap = if (plan.isNotEmpty()) BitmapFactory.decodeFile(File(siteDir, plan).path) else null
+        planView.setPlan(id, bitmap, r)
+        planView.setPose(lastPose, positioning?.currentBlePosition())
+        floorButton.text = "Floor $id" + if (manualFloor == null) " (auto)" else ""
+    }
+
+    /** Cycles auto -> each floor -> auto. */
+    private fun nextFloor() {
+        val m = manualFloor
+        manualFloor = when {
+            m == null -> floorIds.first()
+            floorIds.indexOf(m) == floorIds.lastIndex -> null
+            else -> floorIds[floorIds.indexOf(m) + 1]
+        }
+        showFloor(manualFloor ?: lastPose?.floor ?: floorIds.first())
+    }
+
+    private fun showPose(pose: Pose) {
+        lastPose = pose
+        val want = manualFloor ?: pose.floor
+        if (want != planView.floorId && want in floorIds) showFloor(want)
+        planView.setPose(pose, positioning?.currentBlePosition())
+        val geo = if (pose.latDeg != null) " %.6f, %.6f".format(Locale.US, pose.latDeg, pose.lonDeg) else ""
+        poseView.text = "floor %d (%.0f %%)  x %.1f m  y %.1f m  ±%.1f m  bearing %.0f°  %s%s".format(
+            Locale.US, pose.floor, 100 * pose.floorProb, pose.xM, pose.yM, pose.accuracyM, pose.bearingDeg,
+            pose.source.name.lowercase().replace('_', ' '), geo,
+        )
+    }
+
+    private fun showStatus(s: Status) {
+        val hint = when {
+            s.missingPermissions.isNotEmpty() ->
+                " — beacons cannot be heard without the permission; tap where you are to track by dead reckoning"
+            else -> ""
+        }
+        statusView.text = s.describe() + hint
+    }
+
+    private fun requestMissingPermissions() {
+        val missing = FpbpPositioning.missingPermissions(this, RADIOS) +
+            RadioPermissions.notification(Build.VERSION.SDK_INT).filter { checkSelfPermission(it) != PackageManager.PERMISSION_GRANTED }
+        if (missing.isNotEmpty()) requestPermissions(missing.toTypedArray(), REQUEST_PERMISSIONS)
     }
 
     override fun onRequestPermissionsResult(requestCode: Int, permissions: Array<out String>, grantResults: IntArray) {
         super.onRequestPermissionsResult(requestCode, permissions, grantResults)
-        if (requestCode != REQUEST_PERMISSIONS) return
-        if (grantResults.isNotEmpty() && grantResults.all { it == PackageManager.PERMISSION_GRANTED }) {
-            startAll(null)
-        } else {
-            status.text = "BLE scanning needs the permission: positioning runs on sensors only"
-            startAll(null, withBle = false)
-        }
-    }
-
-    private fun startAll(init: InitialPosition?, withBle: Boolean = true) {
-        stopAll()
-        val e = try {
-            FpbpEngine.start(siteJson, siteDir.path, ENGINE, "", init)
-        } catch (ex: IllegalArgumentException) {
-            status.text = "engine did not start: ${ex.message}"
-            return
-        }
-        engine = e
-        tasks = TaskScheduler(e, clock) { _ -> planView.post { refresh() } }
-        sensors = SensorFeed(getSystemService(SENSOR_SERVICE) as SensorManager) { type, t, v ->
-            e.onSensor(type, t, v)
-            recorder?.sensor(type, t, v)
-        }.also { it.start() }
-        if (withBle) {
-            ble = BleScanner(this) { t, id, rssi, tx ->
-                e.onBleScan(t, id, rssi, tx)
-                recorder?.ble(t, id, rssi, tx)
-            }.also { if (!it.start()) status.text = "Bluetooth is off: positioning runs on sensors only" }
-        }
-    }
-
-    private fun stopAll() {
-        ble?.stop()
-        ble = null
-        sensors?.stop()
-        sensors = null
-        tasks?.close()
-        tasks = null
-        engine?.close()
-        engine = null
-    }
-
-    private fun refresh() {
-        val e = engine ?: return
-        if (e.isClosed) return
-        val pose = e.pose()
-        planView.setPose(pose, e.blePosition())
-        status.text = pose?.let { "x %.1f m  y %.1f m  floor %d  ±%.1f m".format(it.xM, it.yM, it.floor, it.accuracyM) }
-            ?: "waiting for a first fix (walk a few steps near the beacons)"
+        if (requestCode == REQUEST_PERMISSIONS) positioning?.refreshPermissions()
     }
 
     private fun onTap(xM: Double, yM: Double) {
-        recorder?.truth(clock.nowNs(), xM, yM, floorId)
-        startAll(InitialPosition(xM, yM, floorId), withBle = ble != null)
+        val p = positioning ?: return
+        try {
+            p.setPosition(xM, yM, planView.floorId)
+        } catch (e: UnsupportedOperationException) {
+            statusView.text = "engine $ENGINE cannot take a position: ${e.message}"
+        } catch (e: IllegalArgumentException) {
+            statusView.text = "position refused: ${e.message}"
+        } catch (e: IllegalStateException) {
+            statusView.text = "not started: ${e.message}"
+        }
     }
 
     private fun toggleRecording() {
+        val p = positioning ?: return
         val r = recorder
         if (r != null) {
+            p.inputObserver = null
             recorder = null
             r.close()
+            lastLog = r.file
             recordButton.text = "Record log"
-            status.text = "saved ${r.file.path}"
+            shareButton.isEnabled = true
+            statusView.text = "saved ${r.file.name}"
             return
         }
-        val dir = File(getExternalFilesDir(null) ?: filesDir, "logs").apply { mkdirs() }
+        val dir = LogFileProvider.logDir(this).apply { mkdirs() }
         val name = "fpbp-" + SimpleDateFormat("yyyyMMdd-HHmmss", Locale.US).format(Date()) + ".log"
         val meta = mapOf(
             "device" to "${Build.MANUFACTURER} ${Build.MODEL}",
             "android_api" to Build.VERSION.SDK_INT.toString(),
-            "site" to (JSONObject(siteJson).optString("name")),
+            "site" to JSONObject(siteJson).optString("name"),
+            "engine" to ENGINE,
             "app" to "io.fpbp.sample",
         )
-        recorder = LogRecorder(File(dir, name), meta)
+        recorder = LogRecorder(File(dir, name), meta).also { p.inputObserver = it }
         recordButton.text = "Stop recording"
     }
 
-    private fun showPlan() {
-        val floor = JSONObject(siteJson).getJSONArray("floors").getJSONObject(0)
-        floorId = floor.getInt("id")
-        val plan = floor.optString("plan", "")
-        val r = floor.optDouble("pixels_per_meter", 1.0)
-        if (plan.isNotEmpty()) planView.setPlan(BitmapFactory.decodeFile(File(siteDir, plan).path), r)
+    /** Shares the last recorded log (ACTION_SEND with a read grant on its content URI). */
+    private fun shareLog() {
+        val f = lastLog ?: return
+        val send = Intent(Intent.ACTION_SEND).apply {
+            type = "text/plain"
+            putExtra(Intent.EXTRA_STREAM, LogFileProvider.uriFor(f))
+            putExtra(Intent.EXTRA_SUBJECT, f.name)
+            addFlags(Intent.FLAG_GRANT_READ_URI_PERMISSION)
+        }
+        startActivity(Intent.createChooser(send, "Share ${f.name}"))
     }
 
     private fun copyAssetDir(asset: String, to: File) {
@@ -186,15 +278,22 @@ class MainActivity : Activity() {
         for (c in children) copyAssetDir("$asset/$c", File(to, c))
     }
 
-    override fun onDestroy() {
-        recorder?.close()
-        recorder = null
-        stopAll()
-        super.onDestroy()
-    }
+    @Deprecated("framework API without AndroidX")
+    override fun onRetainNonConfigurationInstance(): Any? =
+        positioning?.let { Retained(it, recorder, manualFloor) }
 
-    private companion object {
-        const val ENGINE = "fpbp"
-        const val REQUEST_PERMISSIONS = 1
+    override fun onDestroy() {
+        poseSub?.remove()
+        poseSub = null
+        statusSub?.close()
+        statusSub = null
+        if (!isChangingConfigurations) {
+            positioning?.inputObserver = null
+            recorder?.close()
+            recorder = null
+            positioning?.close()
+        }
+        positioning = null
+        super.onDestroy()
     }
 }

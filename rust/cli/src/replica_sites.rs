@@ -101,6 +101,7 @@ fn site_spec(
                 path_loss_exponent: b.path_loss_exponent,
             })
             .collect(),
+        access_points: Vec::new(),
         georef: None,
     }
 }

@@ -106,6 +106,8 @@ impl BleOnlyEngine {
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
             init,
+            given: false,
+            site,
             stats: EngineStats::default(),
         })
     }

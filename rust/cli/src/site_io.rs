@@ -14,10 +14,37 @@ pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read site file {name}"))?;
     let spec = SiteSpec::from_json(&bytes, &name)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let site = Site::build(spec, &name, &mut |plan: &str| {
-        let p = dir.join(plan);
-        std::fs::read(&p)
-            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))
-    })?;
+    let site = Site::build(spec, &name, &mut |plan: &str| read_plan_file(&dir.join(plan)))?;
     Ok(Arc::new(site))
 }
+
+/// Reads a plan file: only a regular file (a FIFO or device would block or
+/// never end, a directory is no plan) of at most
+/// [`fpbp_core::bounds::MAX_PLAN_FILE_BYTES`]. Errors name the path once.
+pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
+    use std::io::{Error, ErrorKind, Read};
+    let limit = fpbp_core::bounds::MAX_PLAN_FILE_BYTES;
+    let named = |e: Error| Error::new(e.kind(), format!("{}: {e}", p.display()));
+    let check = |m: &std::fs::Metadata| {
+        if !m.is_file() {
+            return Err(Error::new(
+                ErrorKind::InvalidInput,
+                format!("{}: not a regular file", p.display()),
+            ));
+        }
+        if m.len() > limit {
+            return Err(Error::new(
+                ErrorKind::InvalidInput,
+                format!("{}: {} bytes, over the limit of {limit}", p.display(), m.len()),
+            ));
+        }
+        Ok(())
+    };
+    check(&std::fs::metadata(p).map_err(named)?)?;
+    let f = std::fs::File::open(p).map_err(named)?;
+    check(&f.metadata().map_err(named)?)?;
+    let mut buf = Vec::new();
+    f.take(limit).read_to_end(&mut buf).map_err(named)?;
+    Ok(buf)
+}
+

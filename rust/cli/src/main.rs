@@ -16,6 +16,7 @@ mod import_truth;
 mod map_check;
 mod realism;
 mod replay;
+mod report;
 mod simulate;
 
 use clap::{Parser, Subcommand};

@@ -14,7 +14,9 @@ pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read site file {name}"))?;
     let spec = SiteSpec::from_json(&bytes, &name)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
-    let site = Site::build(spec, &name, &mut |plan: &str| read_plan_file(&dir.join(plan)))?;
+    let site = Site::build(spec, &name, &mut |plan: &str| {
+        read_plan_file(&dir.join(plan))
+    })?;
     Ok(Arc::new(site))
 }
 
@@ -35,7 +37,11 @@ pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
         if m.len() > limit {
             return Err(Error::new(
                 ErrorKind::InvalidInput,
-                format!("{}: {} bytes, over the limit of {limit}", p.display(), m.len()),
+                format!(
+                    "{}: {} bytes, over the limit of {limit}",
+                    p.display(),
+                    m.len()
+                ),
             ));
         }
         Ok(())
@@ -47,4 +53,3 @@ pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
     f.take(limit).read_to_end(&mut buf).map_err(named)?;
     Ok(buf)
 }
-

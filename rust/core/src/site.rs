@@ -6,8 +6,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::bounds::{
-    show, MAX_FLOOR_SIDE_M, MAX_GRID_CELLS, MAX_MAP_PIXELS, MAX_PIXELS_PER_METER, MAX_PLAN_SIDE_PX,
-    MIN_GRID_STEP_M, MIN_PIXELS_PER_METER,
+    MAX_FLOOR_SIDE_M, MAX_GRID_CELLS, MAX_MAP_PIXELS, MAX_PIXELS_PER_METER, MAX_PLAN_SIDE_PX,
+    MIN_GRID_STEP_M, MIN_PIXELS_PER_METER, show,
 };
 use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
 use crate::{Error, Result};
@@ -259,7 +259,8 @@ impl SiteSpec {
                 ("target_pixels_per_meter", f.target_pixels_per_meter),
             ] {
                 if let Some(r) = v
-                    && !(r.is_finite() && (MIN_PIXELS_PER_METER..=MAX_PIXELS_PER_METER).contains(&r))
+                    && !(r.is_finite()
+                        && (MIN_PIXELS_PER_METER..=MAX_PIXELS_PER_METER).contains(&r))
                 {
                     return Err(site_err(
                         file,
@@ -481,8 +482,9 @@ impl Site {
                         plan.width_px.div_ceil(kf.max(1)) as f64,
                         plan.height_px.div_ceil(kf.max(1)) as f64,
                     );
-                    check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m)
-                        .map_err(|msg| site_err(site_file, &field, format!("plan {path}: {msg}")))?;
+                    check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m).map_err(
+                        |msg| site_err(site_file, &field, format!("plan {path}: {msg}")),
+                    )?;
                     let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
                     if map.walkable_pixel_count() == 0 {
                         return Err(site_err(
@@ -502,7 +504,9 @@ impl Site {
                     f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER),
                     spec.grid_interval_m,
                 )
-                .map_err(|e| site_err(site_file, format!("floors[{k}].open_area_m"), e.to_string()))?,
+                .map_err(|e| {
+                    site_err(site_file, format!("floors[{k}].open_area_m"), e.to_string())
+                })?,
                 (None, None) => {
                     return Err(site_err(site_file, format!("floors[{k}].plan"), "missing"));
                 }
@@ -570,7 +574,8 @@ pub(crate) mod json_path {
         }
         let at = (off + e.column().saturating_sub(1)).min(bytes.len());
         let rest = &bytes[at..];
-        let word = |w: &[u8]| rest.starts_with(w) || rest.get(1..).is_some_and(|r| r.starts_with(w));
+        let word =
+            |w: &[u8]| rest.starts_with(w) || rest.get(1..).is_some_and(|r| r.starts_with(w));
         let msg = if word(b"NaN") || word(b"Infinity") || word(b"-Infinity") {
             format!(
                 "NaN and Infinity are not allowed (JSON numbers are finite) at line {}, column {}",

@@ -84,7 +84,10 @@ fn measured<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> (T, us
 fn build_site(json: &str) -> fpbp_core::Result<Site> {
     let spec = SiteSpec::from_json(json.as_bytes(), "site.json")?;
     Site::build(spec, "site.json", &mut |_p: &str| {
-        Err(std::io::Error::new(std::io::ErrorKind::NotFound, "no plans here"))
+        Err(std::io::Error::new(
+            std::io::ErrorKind::NotFound,
+            "no plans here",
+        ))
     })
 }
 
@@ -210,7 +213,10 @@ fn config_steps_and_iterations_are_bounded() {
     config_refused(r#"{"prox_pf":{"period_s":1e-12}}"#, &["prox_pf.period_s"]);
     config_refused(r#"{"ppsa":{"slot_s":1e-12}}"#, &["ppsa.slot_s"]);
     // a syntax error names the path, not a line/column as the field
-    config_refused(r#"{"fusion":{"particle_count":"x"}}"#, &["`fusion.particle_count`"]);
+    config_refused(
+        r#"{"fusion":{"particle_count":"x"}}"#,
+        &["`fusion.particle_count`"],
+    );
     // the default config and the defaults' neighbours still pass
     EngineConfig::from_json(r#"{"prox_pf":{"raycast_step_m":0.05}}"#).unwrap();
 }
@@ -313,7 +319,10 @@ fn random_sites_error_cleanly_or_build_within_the_memory_budget() {
         let json = site_with_floor(&floor, &extra);
         let j2 = json.clone();
         let (r, peak) = measured(move || build_site(&j2));
-        assert!(peak < RANDOM_SITE_BUDGET, "case {case}: {peak} bytes: {json}");
+        assert!(
+            peak < RANDOM_SITE_BUDGET,
+            "case {case}: {peak} bytes: {json}"
+        );
         match r {
             Ok(site) => {
                 built += 1;
@@ -343,7 +352,10 @@ fn random_sites_error_cleanly_or_build_within_the_memory_budget() {
         }
     }
     // the generator reaches both outcomes
-    assert!(built > 10 && refused > 100, "built {built}, refused {refused}");
+    assert!(
+        built > 10 && refused > 100,
+        "built {built}, refused {refused}"
+    );
 }
 
 /// Mutates the bytes of valid files: flips, deletions, numbers replaced by
@@ -434,7 +446,10 @@ fn fuzz_site_and_config_loaders_with_a_fixed_budget() {
         });
         let ok = r.unwrap_or_else(|_| panic!("case {case} panicked on: {text}"));
         outcomes[kind][usize::from(ok)] += 1;
-        assert!(peak < RANDOM_SITE_BUDGET, "case {case}: {peak} bytes: {text}");
+        assert!(
+            peak < RANDOM_SITE_BUDGET,
+            "case {case}: {peak} bytes: {text}"
+        );
     }
     // the open-floor site and the config see accepted and refused inputs
     // (the demo site with its plan is refused: this test reads no plans)

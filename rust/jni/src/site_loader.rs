@@ -39,7 +39,11 @@ pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
         if m.len() > limit {
             return Err(Error::new(
                 ErrorKind::InvalidInput,
-                format!("{}: {} bytes, over the limit of {limit}", p.display(), m.len()),
+                format!(
+                    "{}: {} bytes, over the limit of {limit}",
+                    p.display(),
+                    m.len()
+                ),
             ));
         }
         Ok(())
@@ -51,7 +55,6 @@ pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
     f.take(limit).read_to_end(&mut buf).map_err(named)?;
     Ok(buf)
 }
-
 
 #[cfg(test)]
 mod tests {

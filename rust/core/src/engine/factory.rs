@@ -35,7 +35,8 @@ pub struct EngineData {
 /// site has, inside that floor's plan, and a finite heading when one is
 /// given. Every engine's start and `set_position` go through it.
 pub fn check_initial_position(site: &Site, at: &InitialPosition) -> Result<()> {
-    let bad = |field: &str, msg: String| Err(Error::config(format!("initial_position.{field}"), msg));
+    let bad =
+        |field: &str, msg: String| Err(Error::config(format!("initial_position.{field}"), msg));
     if !(at.x_m.is_finite() && at.y_m.is_finite()) {
         return bad(
             "x_m",
@@ -46,7 +47,11 @@ pub fn check_initial_position(site: &Site, at: &InitialPosition) -> Result<()> {
         let ids: Vec<String> = site.spec.floors.iter().map(|f| f.id.to_string()).collect();
         return bad(
             "floor",
-            format!("no floor {} on the site (floors: {})", at.floor, ids.join(", ")),
+            format!(
+                "no floor {} on the site (floors: {})",
+                at.floor,
+                ids.join(", ")
+            ),
         );
     };
     let (w, h) = (map.width_m(), map.height_m());

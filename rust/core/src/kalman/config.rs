@@ -137,7 +137,12 @@ impl EkfConfig {
             return Err(Error::config("ekf.proximity_rssi_dbm", "must be finite"));
         }
         use crate::bounds::check_count;
-        check_count("ekf.ranging_max_beacons", self.ranging_max_beacons, 1, 10_000)?;
+        check_count(
+            "ekf.ranging_max_beacons",
+            self.ranging_max_beacons,
+            1,
+            10_000,
+        )?;
         check_count("ekf.gnss_window", self.gnss_window, 1, 10_000)?;
         Ok(())
     }

@@ -227,7 +227,10 @@ pub fn run(args: Args) -> Result<()> {
     }
     let opts = read_options(&spec, args.floor);
     let mut paths = Vec::new();
+    let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
+        bar.set_message(format!("reading {}", l.display()));
+        bar.inc(1);
         let events = load_events(l, &opts)?;
         let mut p = SurveyPath {
             name: l.display().to_string(),
@@ -246,7 +249,9 @@ pub fn run(args: Args) -> Result<()> {
         }
         paths.push(p);
     }
+    bar.set_message("fitting beacons");
     let (mut reports, mut summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
+    bar.finish_and_clear();
     // a transmitter fitted outside its floor's map cannot go into the site
     let input = crate::site_io::load_site(&args.site)?;
     for r in reports.iter_mut().filter(|r| r.accepted()) {

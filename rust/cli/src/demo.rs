@@ -89,12 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
 
-    let bar = indicatif::ProgressBar::new((logs.len() * args.engines.len()) as u64);
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
+    let bar = crate::progress::bar((logs.len() * args.engines.len()) as u64);
     let mut runs: Vec<Vec<LogRun>> = args.engines.iter().map(|_| Vec::new()).collect();
     let mut reads = Vec::new();
     let mut loaded = Vec::new();

@@ -28,7 +28,8 @@ pub struct Args {
     /// Log files (native, ILC or IPIN; gzip or plain).
     #[arg(long, num_args = 1.., required = true)]
     pub logs: Vec<PathBuf>,
-    /// Engine names, comma-separated.
+    /// Engine names, comma-separated: fpbp, bp, pdr, gml, trilat, frbw, ml,
+    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf (README.md, "Engines").
     #[arg(long, value_delimiter = ',', required = true)]
     pub engine: Vec<String>,
     /// Output folder (created).
@@ -337,15 +338,10 @@ fn run_inner(
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let bar = if progress {
-        indicatif::ProgressBar::new((logs.len() * engines.len()) as u64)
+        crate::progress::bar((logs.len() * engines.len()) as u64)
     } else {
         indicatif::ProgressBar::hidden()
     };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
     let mut runs: Vec<Vec<LogRun>> = engines.iter().map(|_| Vec::new()).collect();
     let mut reads: Vec<ReadSummary> = Vec::new();
     let mut loaded = Vec::new();
@@ -454,6 +450,26 @@ fn short(p: &Path) -> String {
 mod tests {
     use super::*;
     use crate::common::test_support::*;
+
+    /// The engine list in `--engine`'s help (and replay's) is the factory's.
+    #[test]
+    fn engine_help_lists_every_engine() {
+        use clap::CommandFactory;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            eval: Args,
+        }
+        let help = Cli::command().render_long_help().to_string();
+        let replay = include_str!("replay.rs");
+        for name in fpbp_core::engine::ENGINE_NAMES {
+            assert!(help.contains(name), "eval --engine help lacks {name}");
+            assert!(
+                replay.contains(&format!(" {name},")) || replay.contains(&format!(" {name} (")),
+                "replay --engine help lacks {name}"
+            );
+        }
+    }
 
     #[test]
     fn split_follows_the_sorted_file_names() {

@@ -396,6 +396,145 @@ pub fn track_png(path: &Path, plot: &TrackPlot) -> anyhow::Result<()> {
     save_rgb(path, w, h, buf)
 }
 
+/// A raster of a floor (one image pixel per plan pixel, row 0 at the top)
+/// drawn as a figure: axes in metres, a scale bar, `points` (MCS metres)
+/// as outlined dots that stay visible at any plan size, and a legend strip
+/// below the plan (colour patches with labels).
+pub struct FloorFigure<'a> {
+    pub title: String,
+    pub image: &'a image::RgbaImage,
+    pub width_m: f64,
+    pub height_m: f64,
+    pub points: &'a [(f64, f64)],
+    pub point_label: &'a str,
+    pub point_color: RGBColor,
+    pub legend: Vec<(String, RGBColor)>,
+}
+
+/// A round length near a fifth of `span` (1, 2 or 5 times a power of ten), metres.
+pub fn scale_bar_m(span: f64) -> f64 {
+    let target = (span / 5.0).max(1e-3);
+    let p = 10f64.powf(target.log10().floor());
+    [5.0, 2.0, 1.0]
+        .iter()
+        .map(|k| k * p)
+        .find(|&l| l <= target)
+        .unwrap_or(p)
+}
+
+/// Draws a [`FloorFigure`] into a PNG at `path` (about 1100 px wide).
+pub fn floor_figure_png(path: &Path, fig: &FloorFigure) -> anyhow::Result<()> {
+    ensure_font()?;
+    let (x0, x1, y0, y1) = (0.0, fig.width_m.max(1e-3), 0.0, fig.height_m.max(1e-3));
+    let plot_w = 1000.0;
+    let plot_h = (plot_w * (y1 - y0) / (x1 - x0)).clamp(200.0, 1300.0);
+    let legend_h = 40u32;
+    let (w, h) = (plot_w as u32 + 90, plot_h as u32 + 100 + legend_h);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(e)?;
+        let (top, legend) = root.split_vertically(h - legend_h);
+        let mut chart = ChartBuilder::on(&top)
+            .caption(fpbp_core::bounds::cut(&fig.title, 110), ("sans-serif", 18))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(e)?;
+        let (xr, yr) = chart.plotting_area().get_pixel_range();
+        let (pw, ph) = (
+            (xr.end - xr.start).max(1) as f64,
+            (yr.end - yr.start).max(1) as f64,
+        );
+        let (iw, ih) = (fig.image.width() as f64, fig.image.height() as f64);
+        for py in yr.clone() {
+            let v = ((py - yr.start) as f64 / ph * ih) as u32;
+            for px in xr.clone() {
+                let u = ((px - xr.start) as f64 / pw * iw) as u32;
+                if u < fig.image.width() && v < fig.image.height() {
+                    let c = fig.image.get_pixel(u, v).0;
+                    root.draw_pixel((px, py), &RGBColor(c[0], c[1], c[2]))
+                        .map_err(e)?;
+                }
+            }
+        }
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .draw()
+            .map_err(e)?;
+        chart
+            .draw_series(
+                fig.points
+                    .iter()
+                    .map(|p| Circle::new(*p, 4, WHITE.filled())),
+            )
+            .map_err(e)?;
+        chart
+            .draw_series(
+                fig.points
+                    .iter()
+                    .map(|p| Circle::new(*p, 3, fig.point_color.filled())),
+            )
+            .map_err(e)?;
+        // scale bar in the lower left corner, on a white box
+        let len = scale_bar_m(x1 - x0);
+        let (bx, by) = (x0 + 0.03 * (x1 - x0), y0 + 0.04 * (y1 - y0));
+        let pad = 0.012 * (x1 - x0);
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [
+                    (bx - pad, by - pad),
+                    (bx + len + pad, by + 0.05 * (y1 - y0)),
+                ],
+                WHITE.mix(0.9).filled(),
+            )))
+            .map_err(e)?;
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(bx, by), (bx + len, by)],
+                BLACK.stroke_width(3),
+            )))
+            .map_err(e)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("{len} m"),
+                (bx, by + 0.015 * (y1 - y0)),
+                ("sans-serif", 14).into_font().color(&BLACK),
+            )))
+            .map_err(e)?;
+        let text = ("sans-serif", 15).into_font().color(&BLACK);
+        let mut x = 20i32;
+        let mut items: Vec<(String, RGBColor)> = fig.legend.clone();
+        if !fig.points.is_empty() {
+            items.push((
+                format!("{} ({})", fig.point_label, fig.points.len()),
+                fig.point_color,
+            ));
+        }
+        for (label, c) in &items {
+            legend
+                .draw(&Rectangle::new([(x, 12), (x + 16, 28)], c.filled()))
+                .map_err(e)?;
+            legend
+                .draw(&Rectangle::new(
+                    [(x, 12), (x + 16, 28)],
+                    BLACK.stroke_width(1),
+                ))
+                .map_err(e)?;
+            legend
+                .draw(&Text::new(label.clone(), (x + 22, 12), text.clone()))
+                .map_err(e)?;
+            x += 34 + 8 * label.len() as i32;
+        }
+        root.present().map_err(e)?;
+    }
+    save_rgb(path, w, h, buf)
+}
+
 /// Where a chart's legend goes.
 pub use plotters::chart::SeriesLabelPosition as LegendPosition;
 

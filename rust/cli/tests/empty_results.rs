@@ -146,7 +146,9 @@ fn a_reversed_log_says_events_were_dropped_out_of_order() {
     // give a pose or two, so the exit code is not asserted; the drop is said
     let r = eval(&site, &log, &d.join("out"));
     assert!(
-        r.2.contains("27644 of 31560 events (87.6 %) dropped: 27644 late (events out of time order"),
+        r.2.contains(
+            "27644 of 31560 events (87.6 %) dropped: 27644 late (events out of time order"
+        ),
         "{}",
         r.2
     );

@@ -50,8 +50,8 @@ pub struct Args {
     /// Several engine seeds (`1-5`, `1,3,7`): each engine runs once per seed
     /// (outputs in DIR/seed-S/) and DIR/metrics.json and the table give the
     /// mean and spread over the seeds.
-    #[arg(long, value_parser = crate::report::parse_seeds)]
-    pub seeds: Option<Vec<u64>>,
+    #[arg(long, value_parser = crate::report::seed_list)]
+    pub seeds: Option<crate::report::SeedList>,
     /// Floor id of truth points whose log gives none.
     #[arg(long, allow_hyphen_values = true)]
     pub floor: Option<i32>,
@@ -95,7 +95,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             name, site, cfg, init, &data,
         )?)
     };
-    if let Some(seeds) = args.seeds.clone() {
+    if let Some(crate::report::SeedList(seeds)) = args.seeds.clone() {
         let summary = run_seeds(&args, &seeds, &build, true)?;
         print_seed_table(&summary, &seeds);
     } else {
@@ -454,13 +454,29 @@ mod tests {
     /// The engine list in `--engine`'s help (and replay's) is the factory's.
     #[test]
     fn engine_help_lists_every_engine() {
-        use clap::CommandFactory;
+        use clap::{CommandFactory, Parser};
         #[derive(clap::Parser)]
         struct Cli {
             #[command(flatten)]
             eval: Args,
         }
         let help = Cli::command().render_long_help().to_string();
+        // and the arguments parse (clap checks its definitions here)
+        let cli = Cli::try_parse_from([
+            "t", "--site", "s", "--logs", "l", "--engine", "fpbp", "--out", "o", "--seeds", "1-3,7",
+        ])
+        .unwrap();
+        assert_eq!(
+            cli.eval.seeds,
+            Some(crate::report::SeedList(vec![1, 2, 3, 7]))
+        );
+        assert!(
+            Cli::try_parse_from([
+                "t", "--site", "s", "--logs", "l", "--engine", "fpbp", "--out", "o", "--seeds",
+                "3-1"
+            ])
+            .is_err()
+        );
         let replay = include_str!("replay.rs");
         for name in fpbp_core::engine::ENGINE_NAMES {
             assert!(help.contains(name), "eval --engine help lacks {name}");

@@ -467,6 +467,15 @@ pub fn track_panel(site: &Site, name: &str, run: &LogRun, floor: i32) -> crate::
     }
 }
 
+/// The seeds of `eval --seeds` (one clap value holding the list).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct SeedList(pub Vec<u64>);
+
+/// `--seeds` as a clap value parser.
+pub fn seed_list(s: &str) -> Result<SeedList, String> {
+    parse_seeds(s).map(SeedList)
+}
+
 /// `1-5`, `3`, `1,2,7` or `1-3,9` as a list of seeds (at most 1000).
 pub fn parse_seeds(s: &str) -> Result<Vec<u64>, String> {
     let mut out = Vec::new();

@@ -164,19 +164,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         ),
         &cdf,
     )?;
-    report::MetricsDoc {
-        format: report::METRICS_FORMAT,
-        version: report::METRICS_VERSION,
-        command: "demo",
-        site: site_path.display().to_string(),
-        log_files: logs.iter().map(|p| p.display().to_string()).collect(),
-        init: args.init,
-        split: None,
-        seeds: vec![cfg.seed],
-        wall_s: started.elapsed().as_secs_f64(),
-        engines: &engines,
-        read_reports: Vec::new(),
-    }
+    report::MetricsDoc::new(
+        "demo",
+        &site_path,
+        &logs,
+        args.init,
+        vec![cfg.seed],
+        started.elapsed().as_secs_f64(),
+        &engines,
+    )
     .write(&args.out)?;
 
     println!(

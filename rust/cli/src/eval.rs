@@ -148,17 +148,16 @@ pub fn run_seeds(
         .collect();
     let logs = select_logs(&args.logs, args.split);
     crate::report::MetricsDoc {
-        format: crate::report::METRICS_FORMAT,
-        version: crate::report::METRICS_VERSION,
-        command: "eval",
-        site: args.site.display().to_string(),
-        log_files: logs.iter().map(|p| p.display().to_string()).collect(),
-        init: args.init,
         split: Some(args.split),
-        seeds: seeds.to_vec(),
-        wall_s: started.elapsed().as_secs_f64(),
-        engines: &summary,
-        read_reports: Vec::new(),
+        ..crate::report::MetricsDoc::new(
+            "eval",
+            &args.site,
+            &logs,
+            args.init,
+            seeds.to_vec(),
+            started.elapsed().as_secs_f64(),
+            &summary,
+        )
     }
     .write(&args.out)?;
     let series: Vec<plot::CdfSeries> = summary
@@ -371,17 +370,16 @@ fn run_inner(
         .map(|(e, r)| EngineMetrics::from_runs(&site, e, args.init, r, &reads))
         .collect();
     crate::report::MetricsDoc {
-        format: crate::report::METRICS_FORMAT,
-        version: crate::report::METRICS_VERSION,
-        command: "eval",
-        site: args.site.display().to_string(),
-        log_files: logs.iter().map(|p| p.display().to_string()).collect(),
-        init: args.init,
         split: Some(args.split),
-        seeds: vec![cfg.seed],
-        wall_s: started.elapsed().as_secs_f64(),
-        engines: &metrics,
-        read_reports: Vec::new(),
+        ..crate::report::MetricsDoc::new(
+            "eval",
+            &args.site,
+            &logs,
+            args.init,
+            vec![cfg.seed],
+            started.elapsed().as_secs_f64(),
+            &metrics,
+        )
     }
     .write(&args.out)?;
     let series: Vec<plot::CdfSeries> = metrics

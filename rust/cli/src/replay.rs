@@ -103,17 +103,16 @@ fn run_inner(
         std::slice::from_ref(&read),
     );
     report::MetricsDoc {
-        format: report::METRICS_FORMAT,
-        version: report::METRICS_VERSION,
-        command: "replay",
-        site: args.site.display().to_string(),
-        log_files: vec![args.log.display().to_string()],
-        init: args.init,
-        split: None,
-        seeds: vec![cfg.seed],
-        wall_s: started.elapsed().as_secs_f64(),
-        engines: std::slice::from_ref(&metrics),
         read_reports: vec![&log.report],
+        ..report::MetricsDoc::new(
+            "replay",
+            &args.site,
+            std::slice::from_ref(&args.log),
+            args.init,
+            vec![cfg.seed],
+            started.elapsed().as_secs_f64(),
+            std::slice::from_ref(&metrics),
+        )
     }
     .write(&args.out)?;
 

@@ -148,6 +148,31 @@ pub struct MetricsDoc<'a, E: Serialize> {
 }
 
 impl<'a, E: Serialize> MetricsDoc<'a, E> {
+    /// The document of `command` (no split, no read reports: set them after).
+    pub fn new(
+        command: &'static str,
+        site: &Path,
+        log_files: &[std::path::PathBuf],
+        init: InitMode,
+        seeds: Vec<u64>,
+        wall_s: f64,
+        engines: &'a [E],
+    ) -> Self {
+        MetricsDoc {
+            format: METRICS_FORMAT,
+            version: METRICS_VERSION,
+            command,
+            site: site.display().to_string(),
+            log_files: log_files.iter().map(|p| p.display().to_string()).collect(),
+            init,
+            split: None,
+            seeds,
+            wall_s,
+            engines,
+            read_reports: Vec::new(),
+        }
+    }
+
     pub fn write(&self, dir: &Path) -> anyhow::Result<()> {
         let p = dir.join("metrics.json");
         std::fs::write(&p, serde_json::to_string_pretty(self)? + "\n")

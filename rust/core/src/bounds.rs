@@ -45,6 +45,31 @@ pub const MAX_FINGERPRINT_POINTS: usize = 5_000;
 pub const MAX_PARTICLES: usize = 1_000_000;
 /// Largest plan file read from disk, bytes (callers that read plans check it).
 pub const MAX_PLAN_FILE_BYTES: u64 = 256 * 1024 * 1024;
+/// Whether `meta` (of a plan file at `path`, before and after opening it)
+/// may be read: a regular file (a FIFO or device would block or never end, a
+/// directory is no plan) of at most [`MAX_PLAN_FILE_BYTES`]. The check
+/// only; the callers that read plans (CLI, JNI) do the I/O.
+pub fn check_plan_file(path: &std::path::Path, meta: &std::fs::Metadata) -> std::io::Result<()> {
+    use std::io::{Error, ErrorKind};
+    if !meta.is_file() {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!("{}: not a regular file", path.display()),
+        ));
+    }
+    if meta.len() > MAX_PLAN_FILE_BYTES {
+        return Err(Error::new(
+            ErrorKind::InvalidInput,
+            format!(
+                "{}: {} bytes, over the limit of {MAX_PLAN_FILE_BYTES}",
+                path.display(),
+                meta.len()
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Longest an input value is echoed in an error message, characters.
 pub const MAX_ECHO_CHARS: usize = 80;
 

@@ -26,33 +26,16 @@ pub fn load_site(site_json: &str, site_dir: &Path) -> Result<Site, BridgeError> 
 /// [`fpbp_core::bounds::MAX_PLAN_FILE_BYTES`]. Errors name the path once. (The CLI's
 /// `site_io` has the same reader; the bridge does not depend on the CLI.)
 pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
-    use std::io::{Error, ErrorKind, Read};
-    let limit = fpbp_core::bounds::MAX_PLAN_FILE_BYTES;
-    let named = |e: Error| Error::new(e.kind(), format!("{}: {e}", p.display()));
-    let check = |m: &std::fs::Metadata| {
-        if !m.is_file() {
-            return Err(Error::new(
-                ErrorKind::InvalidInput,
-                format!("{}: not a regular file", p.display()),
-            ));
-        }
-        if m.len() > limit {
-            return Err(Error::new(
-                ErrorKind::InvalidInput,
-                format!(
-                    "{}: {} bytes, over the limit of {limit}",
-                    p.display(),
-                    m.len()
-                ),
-            ));
-        }
-        Ok(())
-    };
-    check(&std::fs::metadata(p).map_err(named)?)?;
+    use fpbp_core::bounds::{MAX_PLAN_FILE_BYTES, check_plan_file};
+    use std::io::Read;
+    let named = |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", p.display()));
+    check_plan_file(p, &std::fs::metadata(p).map_err(named)?)?;
     let f = std::fs::File::open(p).map_err(named)?;
-    check(&f.metadata().map_err(named)?)?;
+    check_plan_file(p, &f.metadata().map_err(named)?)?;
     let mut buf = Vec::new();
-    f.take(limit).read_to_end(&mut buf).map_err(named)?;
+    f.take(MAX_PLAN_FILE_BYTES)
+        .read_to_end(&mut buf)
+        .map_err(named)?;
     Ok(buf)
 }
 

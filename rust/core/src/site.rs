@@ -430,7 +430,7 @@ pub fn check_floor_size(
 /// be had is an error, not an abort.
 pub fn open_floor_map(w_m: f64, h_m: f64, r: f64, grid_interval_m: f64) -> Result<FloorMap> {
     let (wf, hf) = open_floor_px(w_m, h_m, r);
-    check_floor_size(wf, hf, r, grid_interval_m).map_err(|msg| Error::Input(msg))?;
+    check_floor_size(wf, hf, r, grid_interval_m).map_err(Error::Input)?;
     let (w, h) = (wf as usize, hf as usize);
     let mut f = crate::bounds::try_filled(w * h, Feature::Walkable, "open floor plan")?;
     for j in 0..h {

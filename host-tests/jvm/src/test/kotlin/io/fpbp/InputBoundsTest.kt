@@ -6,6 +6,7 @@ import org.junit.jupiter.api.Assertions.assertTimeoutPreemptively
 import org.junit.jupiter.api.Assertions.assertTrue
 import org.junit.jupiter.api.Test
 import org.junit.jupiter.api.assertThrows
+import org.junit.jupiter.api.function.ThrowingSupplier
 
 /**
  * Issue 20's reproducers through the JNI surface: each used to hang `start`
@@ -19,11 +20,14 @@ class InputBoundsTest {
     private val dir = TestSupport.repo.path
 
     private fun refused(siteJson: String, config: String, init: DoubleArray?, vararg parts: String) {
-        val e = assertTimeoutPreemptively(Duration.ofSeconds(10)) {
-            assertThrows<IllegalArgumentException> {
-                NativeBridge.start(siteJson, dir, config, "fpbp", init, null)
-            }
-        }
+        val e: IllegalArgumentException = assertTimeoutPreemptively(
+            Duration.ofSeconds(10),
+            ThrowingSupplier {
+                assertThrows<IllegalArgumentException> {
+                    NativeBridge.start(siteJson, dir, config, "fpbp", init, null)
+                }
+            },
+        )
         val m = e.message ?: ""
         for (p in parts) assertTrue(m.contains(p), "message `$m` should mention `$p`")
         assertTrue(m.length < 1000, "message of ${m.length} characters")

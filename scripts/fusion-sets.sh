@@ -35,6 +35,17 @@ fi
 name=${2:?NAME}
 cfg=${3:?CONFIG_JSON}
 eng=${4:-fpbp}
+# CONFIG_JSON is JSON text or the path of a JSON file
+if [ -f "$cfg" ]; then
+    cfg=$(cat "$cfg")
+fi
+case $cfg in
+\{*) ;;
+*)
+    echo "CONFIG_JSON must be JSON text ({...}) or an existing file, got: ${cfg:0:80}" >&2
+    exit 2
+    ;;
+esac
 if [ "$mode" = seeds ]; then
     n=${5:-5}
     o=out/sets/$name
@@ -62,14 +73,25 @@ echo "$cfg" >"$o/config.json"
 F1=out/sites/ilc-site1-F1/site-cal.json
 F4=out/sites/ilc-site2-F4/site.json
 IP=out/sites/ipin2023/site.json
+for site in $F1 $F4 $IP; do
+    [ -f "$site" ] || {
+        echo "$site not found: make the real sites first (docs/sites.md)" >&2
+        exit 1
+    }
+done
 run() { # label site split init logs...
     local label=$1 site=$2 split=$3 init=$4
     shift 4
     local extra=()
     [ "$split" != all ] && extra+=(--split "$split")
     [ "$init" = truth ] && extra+=(--init truth)
-    "$F" eval --site "$site" --logs "$@" --engine "$eng" --config "$o/config.json" \
-        "${extra[@]}" --out "$o/$label" >"$o/$label.txt" 2>&1
+    if ! "$F" eval --site "$site" --logs "$@" --engine "$eng" --config "$o/config.json" \
+        "${extra[@]}" --out "$o/$label" >"$o/$label.txt" 2>&1; then
+        echo >&2
+        echo "eval $label failed (see $o/$label.txt):" >&2
+        tail -5 "$o/$label.txt" >&2
+        exit 1
+    fi
     printf ' %s %s' "$label" "$(awk -v e="$eng" '$1 == e {print $5}' "$o/$label.txt")"
 }
 printf '%-20s' "$name"

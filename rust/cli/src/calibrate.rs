@@ -236,7 +236,10 @@ pub fn run(args: Args) -> Result<()> {
     let opts = read_options(&spec, args.floor);
     let mut paths = Vec::new();
     let mut wifi_paths = Vec::new();
+    let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
+        bar.set_message(format!("reading {}", l.display()));
+        bar.inc(1);
         let events = load_events(l, &opts)?;
         let mut p = SurveyPath {
             name: l.display().to_string(),
@@ -264,7 +267,9 @@ pub fn run(args: Args) -> Result<()> {
         }
         paths.push(p);
     }
+    bar.set_message("fitting beacons");
     let (mut reports, mut summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
+    bar.finish_and_clear();
     let input = crate::site_io::load_site(&args.site)?;
     place_on_maps(&mut reports, &mut summary, &input);
     print_table(&reports);

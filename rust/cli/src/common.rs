@@ -91,12 +91,14 @@ pub fn load_log(path: &Path, opts: &ReadOptions) -> anyhow::Result<LoadedLog> {
         || path.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
-    Ok(LoadedLog {
+    let log = LoadedLog {
         path: path.to_path_buf(),
         name,
         events,
         report,
-    })
+    };
+    crate::report::warn_dropped(&log);
+    Ok(log)
 }
 
 /// Whether engines get the first truth point as their start.
@@ -181,10 +183,23 @@ pub fn run_log(
     for e in &log.events[start..] {
         r.push(e);
     }
+    let mut out = r.finish();
+    // Both start modes are scored on the same points: every truth point
+    // after the log's first (nothing can be known at a log's first instant;
+    // with a start from truth that point is the start and is not replayed).
+    if start == 0
+        && let Some(first) = log.events.iter().find_map(|e| match e {
+            LogEvent::Truth(t) => Some(*t),
+            _ => None,
+        })
+        && out.scored.first().is_some_and(|s| s.truth == first)
+    {
+        out.scored.remove(0);
+    }
     Ok(LogRun {
         log: log.name.clone(),
         init,
-        out: r.finish(),
+        out,
     })
 }
 
@@ -207,6 +222,9 @@ pub struct ErrorStats {
     pub points: usize,
     /// Truth points at which the engine had no pose yet (not in the errors).
     pub no_fix: usize,
+    /// Share of the points with a pose, (points - no_fix) / points: the
+    /// errors below are over that share only.
+    pub coverage: Option<f64>,
     pub mpe_m: Option<f64>,
     pub p50_m: Option<f64>,
     pub p75_m: Option<f64>,
@@ -260,6 +278,7 @@ impl ErrorStats {
         ErrorStats {
             points,
             no_fix,
+            coverage: (points > 0).then(|| (points - no_fix) as f64 / points as f64),
             mpe_m: mean,
             p50_m: percentile(&errors, 50.0),
             p75_m: percentile(&errors, 75.0),
@@ -354,13 +373,22 @@ pub struct EngineMetrics {
     pub mct_us: MctUs,
     /// Log time replayed per second of wall time (engine work only; parsing excluded).
     pub realtime_factor: Option<f64>,
+    /// `--init` as asked.
     pub init: InitMode,
+    /// How this engine actually started (`pdr` always from truth).
+    pub start: crate::report::StartMode,
+    /// Jumps, wall crossings and poses in walls of the published tracks.
+    pub track: crate::report::TrackQuality,
     pub per_log: Vec<LogMetrics>,
+    /// The finite errors of every point with a pose (for the CDF).
+    #[serde(skip)]
+    pub cdf_errors: Vec<f64>,
 }
 
 impl EngineMetrics {
     /// Aggregates the runs of one engine (`reads[i]` belongs to `runs[i]`).
     pub fn from_runs(
+        site: &Site,
         engine: &str,
         init: InitMode,
         runs: &[LogRun],
@@ -389,7 +417,10 @@ impl EngineMetrics {
             mct_us: MctUs::from_runs(runs),
             realtime_factor: (wall > 0.0).then(|| dur / wall),
             init,
+            start: crate::report::StartMode::of(runs),
+            track: crate::report::TrackQuality::of(site, runs.iter().map(|r| &r.out)),
             per_log,
+            cdf_errors: Self::errors_of(runs),
         }
     }
 
@@ -613,6 +644,7 @@ mod tests {
         let run = run_log(&builder, "pdr", &site, &cfg, InitMode::None, &log).unwrap();
         assert!(run.init.is_some());
         let m = EngineMetrics::from_runs(
+            &site,
             "pdr",
             InitMode::None,
             std::slice::from_ref(&run),
@@ -622,11 +654,16 @@ mod tests {
         assert_eq!(m.errors.no_fix, 0);
         assert!(m.errors.max_m.unwrap() < 0.11, "{m:?}");
         assert_eq!(m.errors.floor_accuracy, Some(1.0));
-        // Another engine without --init truth gets no start: every point is a no-fix.
+        assert_eq!(m.errors.coverage, Some(1.0));
+        // Another engine without --init truth gets no start: every point is a
+        // no-fix, on the same 4 points (the first truth point is not scored).
         let run = run_log(&builder, "walk-east", &site, &cfg, InitMode::None, &log).unwrap();
         assert!(run.init.is_none());
         let s = ErrorStats::from_points(&run.out.scored);
-        assert_eq!((s.points, s.no_fix, s.mpe_m), (5, 5, None));
+        assert_eq!(
+            (s.points, s.no_fix, s.mpe_m, s.coverage),
+            (4, 4, None, Some(0.0))
+        );
         // With --init truth it starts too.
         let run = run_log(&builder, "walk-east", &site, &cfg, InitMode::Truth, &log).unwrap();
         assert_eq!(ErrorStats::from_points(&run.out.scored).no_fix, 0);

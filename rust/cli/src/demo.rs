@@ -1,9 +1,10 @@
 //! `fpbp demo`: the main job. Runs fpbp, bp, gml and pdr on the demo site
 //! and its shipped simulated logs, prints one table (mean / p50 / p80 error,
 //! mean compute time per task, real-time factor, poses inside walls) and
-//! writes OUT/track_<log>.png (tracks over the plan), OUT/track_<log>_<engine>.csv,
-//! OUT/cdf.png and
-//! OUT/metrics.json (the `fpbp eval` engine objects plus `poses_in_wall`).
+//! writes OUT/track_<log>.png (one panel per engine over the plan),
+//! OUT/track_<log>_<engine>.csv (the replay track layout, with truth rows),
+//! OUT/cdf.png and OUT/metrics.json (the one metrics document of eval and
+//! replay, `command` "demo").
 //!
 //! Start-up: every engine finds its own start except `pdr`, which gets the
 //! first truth point (the paper's PDR baseline); `--init truth` gives every
@@ -12,15 +13,11 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use fpbp_core::Vec2;
-use fpbp_core::engine::replay::ReplayOutput;
 use fpbp_core::events::LogEvent;
-use fpbp_core::map::Feature;
-use fpbp_core::site::Site;
-use serde::Serialize;
 
 use crate::common::{self, EngineMetrics, InitMode, LogRun, ReadSummary, fmt_opt};
-use crate::plot::{self, Series, TrackPlot};
+use crate::plot::{self, TrackPlot};
+use crate::report;
 
 /// Arguments of `fpbp demo`.
 #[derive(clap::Args)]
@@ -46,15 +43,6 @@ pub struct Args {
     /// Seed of the engines' RNGs (overrides the config's).
     #[arg(long)]
     pub seed: Option<u64>,
-}
-
-/// One engine in the demo's metrics.json.
-#[derive(Serialize)]
-struct DemoEngine {
-    #[serde(flatten)]
-    metrics: EngineMetrics,
-    /// Fraction of published poses that lie inside a Wall.
-    poses_in_wall: f64,
 }
 
 /// A default path relative to the working directory, else relative to the
@@ -86,37 +74,6 @@ fn log_files(dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     Ok(v)
 }
 
-/// Fraction of track poses inside a Wall of their floor.
-fn in_wall_fraction(site: &Site, outs: &[&ReplayOutput]) -> f64 {
-    let (mut n, mut bad) = (0usize, 0usize);
-    for o in outs {
-        for p in &o.track {
-            n += 1;
-            if site
-                .floor(p.floor)
-                .is_some_and(|m| m.feature(Vec2::new(p.x_m, p.y_m)) == Feature::Wall)
-            {
-                bad += 1;
-            }
-        }
-    }
-    if n == 0 { 0.0 } else { bad as f64 / n as f64 }
-}
-
-/// Writes an engine's published poses as CSV (t_ns, x_m, y_m, floor, heading_rad, accuracy_m).
-fn write_track_csv(path: &Path, out: &ReplayOutput) -> anyhow::Result<()> {
-    use std::fmt::Write as _;
-    let mut s = String::from("t_ns,x_m,y_m,floor,heading_rad,accuracy_m\n");
-    for p in &out.track {
-        let _ = writeln!(
-            s,
-            "{},{:.3},{:.3},{},{:.4},{:.2}",
-            p.t_ns, p.x_m, p.y_m, p.floor, p.heading_rad, p.accuracy_m
-        );
-    }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
-}
-
 fn stem(name: &str) -> &str {
     name.split('.').next().unwrap_or(name)
 }
@@ -132,8 +89,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
 
+    let bar = crate::progress::bar((logs.len() * args.engines.len()) as u64);
     let mut runs: Vec<Vec<LogRun>> = args.engines.iter().map(|_| Vec::new()).collect();
     let mut reads = Vec::new();
+    let mut loaded = Vec::new();
     for path in &logs {
         let log = common::load_log(path, &opts)?;
         reads.push(ReadSummary::from(&log.report));
@@ -153,62 +112,68 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 _ => None,
             })
             .unwrap_or_else(|| site.default_floor());
-        let mut tracks = Vec::new();
+        let mut panels = Vec::new();
         for (k, name) in args.engines.iter().enumerate() {
+            bar.set_message(format!("{name} on {}", log.name));
             let run = common::run_log(&common::core_builder, name, &site, &cfg, args.init, &log)
                 .with_context(|| format!("on {}", path.display()))?;
-            write_track_csv(
+            report::write_track_csv(
                 &args
                     .out
                     .join(format!("track_{}_{name}.csv", stem(&log.name))),
                 &run.out,
             )?;
-            tracks.push(Series {
-                label: name.clone(),
-                points: run
-                    .out
-                    .track
-                    .iter()
-                    .filter(|p| p.floor == floor)
-                    .map(|p| (p.x_m, p.y_m))
-                    .collect(),
-            });
+            panels.push(report::track_panel(&site, name, &run, floor));
             runs[k].push(run);
+            bar.inc(1);
         }
         plot::track_png(
             &args.out.join(format!("track_{}.png", stem(&log.name))),
             &TrackPlot {
-                title: format!("{} on {}", log.name, site.spec.name),
+                title: format!("{} on {} (floor {floor})", log.name, site.spec.name),
                 map: site.floor(floor),
-                tracks,
+                panels,
                 truth,
             },
         )?;
-    }
-
-    let mut engines = Vec::new();
-    let mut cdf = Vec::new();
-    for (name, r) in args.engines.iter().zip(&runs) {
-        let outs: Vec<&ReplayOutput> = r.iter().map(|x| &x.out).collect();
-        engines.push(DemoEngine {
-            metrics: EngineMetrics::from_runs(name, args.init, r, &reads),
-            poses_in_wall: in_wall_fraction(&site, &outs),
+        loaded.push(common::LoadedLog {
+            events: log
+                .events
+                .into_iter()
+                .filter(|e| matches!(e, LogEvent::Ble(_)))
+                .collect(),
+            ..log
         });
-        cdf.push((name.clone(), EngineMetrics::errors_of(r)));
     }
+    bar.finish_and_clear();
+
+    let engines: Vec<EngineMetrics> = args
+        .engines
+        .iter()
+        .zip(&runs)
+        .map(|(name, r)| EngineMetrics::from_runs(&site, name, args.init, r, &reads))
+        .collect();
+    let cdf: Vec<plot::CdfSeries> = engines.iter().map(report::cdf_series).collect();
     plot::cdf_png(
         &args.out.join("cdf.png"),
         &format!(
-            "Position error, {} simulated logs on {}",
+            "Position error, {} simulated logs on {}, seed {}",
             logs.len(),
-            site.spec.name
+            site.spec.name,
+            cfg.seed
         ),
         &cdf,
     )?;
-    let json = serde_json::to_string_pretty(&engines)?;
-    let metrics_path = args.out.join("metrics.json");
-    std::fs::write(&metrics_path, json)
-        .with_context(|| format!("cannot write {}", metrics_path.display()))?;
+    report::MetricsDoc::new(
+        "demo",
+        &site_path,
+        &logs,
+        args.init,
+        vec![cfg.seed],
+        started.elapsed().as_secs_f64(),
+        &engines,
+    )
+    .write(&args.out)?;
 
     println!(
         "fpbp demo: {} logs from {} on {}",
@@ -217,45 +182,50 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         site_path.display()
     );
     println!(
-        "{:<8} {:>6} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>10} {:>8}",
+        "{:<8} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>8}",
         "engine",
         "start",
         "points",
         "mean_m",
+        "coverage",
         "p50_m",
         "p80_m",
+        "jmp/hm",
+        "wall/hm",
         "gml_us",
         "fusion_us",
         "rt_factor",
         "in_wall"
     );
-    for e in &engines {
-        let m = &e.metrics;
-        let start = if args.init == InitMode::Truth
-            || common::NEEDS_TRUTH_START.contains(&m.engine.as_str())
-        {
-            "truth"
-        } else {
-            "own"
-        };
+    for m in &engines {
         println!(
-            "{:<8} {:>6} {:>7} {:>7} {:>7} {:>7} {:>9} {:>10} {:>10} {:>7.1}%",
+            "{:<8} {:>6} {:>7} {:>7} {:>8} {:>7} {:>7} {:>7} {:>8} {:>9} {:>10} {:>10} {:>7.1}%",
             m.engine,
-            start,
+            m.start.name(),
             m.errors.points,
             fmt_opt(m.errors.mpe_m, 2),
+            crate::eval::fmt_pct(m.errors.coverage),
             fmt_opt(m.errors.p50_m, 2),
             fmt_opt(m.errors.p80_m, 2),
+            fmt_opt(m.track.jumps_per_100m, 1),
+            fmt_opt(m.track.wall_crossings_per_100m, 1),
             fmt_opt(m.mct_us.gml, 1),
             fmt_opt(m.mct_us.fusion, 1),
             fmt_opt(m.realtime_factor, 0),
-            100.0 * e.poses_in_wall
+            100.0 * m.track.poses_in_wall
         );
     }
+    println!(
+        "(errors over the points with a pose, every truth point after each log's first; \
+         coverage = their share; jmp/hm, wall/hm: track jumps and wall-crossing segments per 100 m; \
+         in_wall: poses inside walls)"
+    );
     println!(
         "plots and metrics.json in {} ({:.1} s)",
         args.out.display(),
         started.elapsed().as_secs_f64()
     );
-    Ok(())
+    let refs: Vec<&common::LoadedLog> = loaded.iter().collect();
+    let mrefs: Vec<&EngineMetrics> = engines.iter().collect();
+    report::check_positioned(&site, &refs, &args.engines, &runs, &mrefs)
 }

@@ -28,7 +28,8 @@ pub struct Args {
     /// Log files (native, ILC or IPIN; gzip or plain).
     #[arg(long, num_args = 1.., required = true)]
     pub logs: Vec<PathBuf>,
-    /// Engine names, comma-separated.
+    /// Engine names, comma-separated: fpbp, bp, pdr, gml, trilat, frbw, ml,
+    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf (README.md, "Engines").
     #[arg(long, value_delimiter = ',', required = true)]
     pub engine: Vec<String>,
     /// Output folder (created).
@@ -44,8 +45,13 @@ pub struct Args {
     #[arg(long, value_enum, default_value = "all")]
     pub split: Split,
     /// Seed of the engines' RNGs (overrides the config's).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "seeds")]
     pub seed: Option<u64>,
+    /// Several engine seeds (`1-5`, `1,3,7`): each engine runs once per seed
+    /// (outputs in DIR/seed-S/) and DIR/metrics.json and the table give the
+    /// mean and spread over the seeds.
+    #[arg(long, value_parser = crate::report::seed_list)]
+    pub seeds: Option<crate::report::SeedList>,
     /// Floor id of truth points whose log gives none.
     #[arg(long, allow_hyphen_values = true)]
     pub floor: Option<i32>,
@@ -75,18 +81,6 @@ pub fn select_logs(logs: &[PathBuf], split: Split) -> Vec<PathBuf> {
         .collect()
 }
 
-#[derive(Serialize)]
-struct EvalMetrics<'a> {
-    format: &'static str,
-    version: u32,
-    site: String,
-    split: Split,
-    init: InitMode,
-    log_files: Vec<String>,
-    wall_s: f64,
-    engines: &'a [EngineMetrics],
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let data = crate::fingerprint::engine_data(
@@ -104,8 +98,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             name, site, cfg, init, &data,
         )?)
     };
-    let metrics = run_with(&args, &build, true)?;
-    print_table(&metrics);
+    if let Some(crate::report::SeedList(seeds)) = args.seeds.clone() {
+        let summary = run_seeds(&args, &seeds, &build, true)?;
+        print_seed_table(&summary, &seeds);
+    } else {
+        let metrics = run_with(&args, &build, true)?;
+        print_table(&metrics);
+    }
     println!(
         "wrote {} and {} ({:.1} s)",
         args.out.join("metrics.json").display(),
@@ -115,52 +114,212 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Runs the evaluation once per seed (DIR/seed-S/ each) and writes
+/// DIR/metrics.json with the mean and spread over the seeds per engine.
+pub fn run_seeds(
+    args: &Args,
+    seeds: &[u64],
+    build: &EngineBuilder,
+    progress: bool,
+) -> anyhow::Result<Vec<crate::report::SeedSummary>> {
+    let started = std::time::Instant::now();
+    let mut per_seed: Vec<Vec<EngineMetrics>> = Vec::new();
+    let mut failed = None;
+    for (k, &s) in seeds.iter().enumerate() {
+        if progress {
+            eprintln!("seed {s} ({} of {})", k + 1, seeds.len());
+        }
+        let a = Args {
+            seed: Some(s),
+            seeds: None,
+            out: args.out.join(format!("seed-{s}")),
+            ..args.clone()
+        };
+        match run_inner(&a, build, progress) {
+            Ok((m, empty)) => {
+                failed = failed.or(empty.err());
+                per_seed.push(m);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    let summary: Vec<crate::report::SeedSummary> = (0..per_seed[0].len())
+        .map(|i| {
+            let v: Vec<&EngineMetrics> = per_seed.iter().map(|m| &m[i]).collect();
+            crate::report::SeedSummary::of(&v)
+        })
+        .collect();
+    let logs = select_logs(&args.logs, args.split);
+    crate::report::MetricsDoc {
+        split: Some(args.split),
+        ..crate::report::MetricsDoc::new(
+            "eval",
+            &args.site,
+            &logs,
+            args.init,
+            seeds.to_vec(),
+            started.elapsed().as_secs_f64(),
+            &summary,
+        )
+    }
+    .write(&args.out)?;
+    let series: Vec<plot::CdfSeries> = summary
+        .iter()
+        .zip(&per_seed[0])
+        .map(|(s, m)| plot::CdfSeries {
+            label: format!(
+                "{} ({} start, seed {}; mean over seeds {} m, coverage {})",
+                s.engine,
+                s.start.name(),
+                seeds[0],
+                common::fmt_opt(s.mpe_m.mean, 2),
+                fmt_pct(s.coverage.mean)
+            ),
+            errors: m.cdf_errors.clone(),
+            points: m.errors.points,
+        })
+        .collect();
+    plot::cdf_png(
+        &args.out.join("cdf.png"),
+        &format!(
+            "error CDF, {} logs, seed {} of {:?}",
+            logs.len(),
+            seeds[0],
+            seeds
+        ),
+        &series,
+    )?;
+    match failed {
+        Some(e) => Err(e),
+        None => Ok(summary),
+    }
+}
+
+/// A share as a percentage for tables ("-" when unknown).
+pub fn fmt_pct(v: Option<f64>) -> String {
+    v.map_or("-".to_string(), |x| format!("{:.0}%", 100.0 * x))
+}
+
+fn print_seed_table(ss: &[crate::report::SeedSummary], seeds: &[u64]) {
+    let pm = |o: &crate::report::OverSeeds, d: usize| match (o.mean, o.sd) {
+        (Some(m), Some(s)) => format!("{m:.d$}±{s:.d$}"),
+        (Some(m), None) => format!("{m:.d$}"),
+        _ => "-".into(),
+    };
+    println!(
+        "mean ± sd over seeds {} ({} runs per engine)",
+        seeds
+            .iter()
+            .map(u64::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+        seeds.len()
+    );
+    println!(
+        "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6}",
+        "engine",
+        "logs",
+        "points",
+        "mpe_m",
+        "coverage",
+        "p50_m",
+        "p80_m",
+        "ipin_m",
+        "jumps/100m",
+        "start"
+    );
+    for s in ss {
+        let cov = match (s.coverage.mean, s.coverage.sd) {
+            (Some(m), Some(sd)) => format!("{:.0}±{:.0}%", 100.0 * m, 100.0 * sd),
+            (m, _) => fmt_pct(m),
+        };
+        println!(
+            "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6}",
+            s.engine,
+            s.logs,
+            s.points,
+            pm(&s.mpe_m, 2),
+            cov,
+            pm(&s.p50_m, 2),
+            pm(&s.p80_m, 2),
+            pm(&s.ipin_score_m, 2),
+            pm(&s.jumps_per_100m, 2),
+            s.start.name()
+        );
+    }
+}
+
+/// The eval table. Column 5 stays `mpe_m` (scripts read it); coverage
+/// stands beside it.
 fn print_table(ms: &[EngineMetrics]) {
     println!(
-        "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>10} {:>10} {:>9}",
+        "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>7} {:>7} {:>10} {:>10} {:>9} {:>6}",
         "engine",
         "logs",
         "points",
         "no_fix",
         "mpe_m",
+        "coverage",
         "p50_m",
         "p80_m",
         "p95_m",
         "max_m",
         "floor",
         "ipin_m",
+        "jmp/hm",
+        "wall/hm",
         "mct_gml",
         "mct_fus",
-        "realtime"
+        "realtime",
+        "start"
     );
     for m in ms {
         let e = &m.errors;
         println!(
-            "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>10} {:>10} {:>9}",
+            "{:<12} {:>5} {:>6} {:>6} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>6} {:>8} {:>7} {:>7} {:>10} {:>10} {:>9} {:>6}",
             m.engine,
             m.logs,
             e.points,
             e.no_fix,
             common::fmt_opt(e.mpe_m, 2),
+            fmt_pct(e.coverage),
             common::fmt_opt(e.p50_m, 2),
             common::fmt_opt(e.p80_m, 2),
             common::fmt_opt(e.p95_m, 2),
             common::fmt_opt(e.max_m, 2),
             common::fmt_opt(e.floor_accuracy, 2),
             common::fmt_opt(e.ipin_score_m, 2),
+            common::fmt_opt(m.track.jumps_per_100m, 1),
+            common::fmt_opt(m.track.wall_crossings_per_100m, 1),
             common::fmt_opt(m.mct_us.gml, 1),
             common::fmt_opt(m.mct_us.fusion, 1),
             common::fmt_opt(m.realtime_factor, 0),
+            m.start.name(),
         );
     }
+    println!(
+        "(errors over the points with a pose; coverage = their share; jmp/hm, wall/hm: \
+         track jumps and wall crossings per 100 m of track)"
+    );
 }
 
-/// Runs the evaluation with `build`, writes metrics.json and cdf.png, returns the metrics.
+/// Runs the evaluation with `build`, writes metrics.json and cdf.png, returns
+/// the metrics; an error (after writing) when an engine positioned nothing.
 pub fn run_with(
     args: &Args,
     build: &EngineBuilder,
     progress: bool,
 ) -> anyhow::Result<Vec<EngineMetrics>> {
+    let (m, empty) = run_inner(args, build, progress)?;
+    empty.map(|_| m)
+}
+
+/// [`run_with`] returning the metrics and, apart, the "nothing positioned" check.
+fn run_inner(
+    args: &Args,
+    build: &EngineBuilder,
+    progress: bool,
+) -> anyhow::Result<(Vec<EngineMetrics>, anyhow::Result<()>)> {
     let started = std::time::Instant::now();
     let site = common::load_site(&args.site)?;
     let cfg = common::load_config(args.config.as_deref(), args.seed)?;
@@ -181,17 +340,13 @@ pub fn run_with(
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let bar = if progress {
-        indicatif::ProgressBar::new((logs.len() * engines.len()) as u64)
+        crate::progress::bar((logs.len() * engines.len()) as u64)
     } else {
         indicatif::ProgressBar::hidden()
     };
-    bar.set_style(
-        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {pos}/{len} {msg}")
-            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
-            .progress_chars("=> "),
-    );
     let mut runs: Vec<Vec<LogRun>> = engines.iter().map(|_| Vec::new()).collect();
     let mut reads: Vec<ReadSummary> = Vec::new();
+    let mut loaded = Vec::new();
     for path in &logs {
         bar.set_message(format!("reading {}", short(path)));
         let mut log = common::load_log(path, &opts)?;
@@ -202,43 +357,55 @@ pub fn run_with(
             runs[i].push(common::run_log(build, e, &site, &cfg, args.init, &log)?);
             bar.inc(1);
         }
+        // keep only what the no-pose diagnosis reads (BLE ids, counts)
+        loaded.push(common::LoadedLog {
+            events: log
+                .events
+                .into_iter()
+                .filter(|e| matches!(e, fpbp_core::events::LogEvent::Ble(_)))
+                .collect(),
+            ..log
+        });
     }
     bar.finish_and_clear();
     let metrics: Vec<EngineMetrics> = engines
         .iter()
         .zip(&runs)
-        .map(|(e, r)| EngineMetrics::from_runs(e, args.init, r, &reads))
+        .map(|(e, r)| EngineMetrics::from_runs(&site, e, args.init, r, &reads))
         .collect();
-    let doc = EvalMetrics {
-        format: "fpbp-eval-metrics",
-        version: 1,
-        site: args.site.display().to_string(),
-        split: args.split,
-        init: args.init,
-        log_files: logs.iter().map(|p| p.display().to_string()).collect(),
-        wall_s: started.elapsed().as_secs_f64(),
-        engines: &metrics,
-    };
-    let mp = args.out.join("metrics.json");
-    std::fs::write(&mp, serde_json::to_string_pretty(&doc)? + "\n")
-        .with_context(|| format!("cannot write {}", mp.display()))?;
-    let series: Vec<(String, Vec<f64>)> = engines
+    crate::report::MetricsDoc {
+        split: Some(args.split),
+        ..crate::report::MetricsDoc::new(
+            "eval",
+            &args.site,
+            &logs,
+            args.init,
+            vec![cfg.seed],
+            started.elapsed().as_secs_f64(),
+            &metrics,
+        )
+    }
+    .write(&args.out)?;
+    let series: Vec<plot::CdfSeries> = metrics
         .iter()
         .zip(&runs)
-        .map(|(e, r)| (e.clone(), EngineMetrics::errors_of(r)))
+        .map(|(m, _)| crate::report::cdf_series(m))
         .collect();
     let title = format!(
-        "error CDF, {} logs, init {:?}, split {:?}",
+        "error CDF, {} logs, split {:?}, seed {}",
         logs.len(),
-        args.init,
-        args.split
+        args.split,
+        cfg.seed
     )
     .to_lowercase();
     plot::cdf_png(&args.out.join("cdf.png"), &title, &series)?;
     let pp = args.out.join("points.csv");
     std::fs::write(&pp, points_csv(&engines, &runs))
         .with_context(|| format!("cannot write {}", pp.display()))?;
-    Ok(metrics)
+    let refs: Vec<&common::LoadedLog> = loaded.iter().collect();
+    let mrefs: Vec<&EngineMetrics> = metrics.iter().collect();
+    let empty = crate::report::check_positioned(&site, &refs, &engines, &runs, &mrefs);
+    Ok((metrics, empty))
 }
 
 /// DIR/points.csv: one row per engine and scored truth point, with the
@@ -286,6 +453,42 @@ mod tests {
     use super::*;
     use crate::common::test_support::*;
 
+    /// The engine list in `--engine`'s help (and replay's) is the factory's.
+    #[test]
+    fn engine_help_lists_every_engine() {
+        use clap::{CommandFactory, Parser};
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            eval: Args,
+        }
+        let help = Cli::command().render_long_help().to_string();
+        // and the arguments parse (clap checks its definitions here)
+        let cli = Cli::try_parse_from([
+            "t", "--site", "s", "--logs", "l", "--engine", "fpbp", "--out", "o", "--seeds", "1-3,7",
+        ])
+        .unwrap();
+        assert_eq!(
+            cli.eval.seeds,
+            Some(crate::report::SeedList(vec![1, 2, 3, 7]))
+        );
+        assert!(
+            Cli::try_parse_from([
+                "t", "--site", "s", "--logs", "l", "--engine", "fpbp", "--out", "o", "--seeds",
+                "3-1"
+            ])
+            .is_err()
+        );
+        let replay = include_str!("replay.rs");
+        for name in fpbp_core::engine::ENGINE_NAMES {
+            assert!(help.contains(name), "eval --engine help lacks {name}");
+            assert!(
+                replay.contains(&format!(" {name},")) || replay.contains(&format!(" {name} (")),
+                "replay --engine help lacks {name}"
+            );
+        }
+    }
+
     #[test]
     fn split_follows_the_sorted_file_names() {
         let logs: Vec<PathBuf> = ["d/c.txt", "a/b.txt", "z/a.txt", "d.txt"]
@@ -324,25 +527,45 @@ mod tests {
             init: InitMode::None,
             split: Split::All,
             seed: None,
+            seeds: None,
             floor: None,
             strict: false,
             fingerprints: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
         };
-        let ms = run_with(&args, &builder, false).unwrap();
+        // walk-east has no start without --init truth: it positions nothing,
+        // which is an error naming it (after the outputs are written)
+        let e = run_with(&args, &builder, false).unwrap_err().to_string();
+        assert!(e.contains("nothing positioned by walk-east"), "{e}");
+        let (ms, empty) = run_inner(&args, &builder, false).unwrap();
+        assert!(empty.is_err());
         assert_eq!(ms.len(), 2);
         // pdr: 4+5+6 truth points minus the 3 start points, all with a fix.
         assert_eq!(
             (ms[0].logs, ms[0].errors.points, ms[0].errors.no_fix),
             (3, 12, 0)
         );
-        // walk-east has no start without --init truth: 15 points, all no-fix.
-        assert_eq!((ms[1].errors.points, ms[1].errors.no_fix), (15, 15));
+        assert_eq!(
+            (ms[0].start, ms[0].errors.coverage),
+            (crate::report::StartMode::Truth, Some(1.0))
+        );
+        // walk-east is scored on the same 12 points (every truth point after
+        // each log's first), all without a pose: coverage 0.
+        assert_eq!((ms[1].errors.points, ms[1].errors.no_fix), (12, 12));
+        assert_eq!(
+            (ms[1].start, ms[1].errors.coverage),
+            (crate::report::StartMode::Own, Some(0.0))
+        );
+        let pdr_all = ms[0].errors.mpe_m;
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(d.join("out/metrics.json")).unwrap())
                 .unwrap();
+        assert_eq!(json["format"], "fpbp-metrics");
+        assert_eq!(json["command"], "eval");
         let e0 = &json["engines"][0];
         for k in [
+            "coverage",
+            "start",
             "engine",
             "logs",
             "points",
@@ -363,10 +586,10 @@ mod tests {
         assert_eq!(e0["per_log"].as_array().unwrap().len(), 3);
         assert_eq!(e0["per_log"][0]["log"], "walk0.log");
         assert!(image::open(d.join("out/cdf.png")).is_ok());
-        // points.csv: header + one row per engine and scored point (12 + 15)
+        // points.csv: header + one row per engine and scored point (12 + 12)
         let csv = std::fs::read_to_string(d.join("out/points.csv")).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
-        assert_eq!(lines.len(), 1 + 12 + 15, "{csv}");
+        assert_eq!(lines.len(), 1 + 12 + 12, "{csv}");
         assert!(lines[0].contains("est_floor") && lines[0].ends_with("ipin_error_m"));
         // a pdr row has an estimated floor; a walk-east row (no fix) has none
         assert_eq!(lines[1].split(',').nth(8), Some("0"));
@@ -376,6 +599,7 @@ mod tests {
             &Args {
                 split: Split::Odd,
                 out: d.join("odd"),
+                engine: vec!["pdr".into()],
                 ..args.clone()
             },
             &builder,
@@ -384,6 +608,32 @@ mod tests {
         .unwrap();
         assert_eq!(ms[0].per_log.len(), 1);
         assert_eq!(ms[0].per_log[0].log, "walk1.log");
+        // Several seeds: one run per seed in DIR/seed-S, the summary in DIR.
+        let seeds = [1, 2, 3];
+        let ss = run_seeds(
+            &Args {
+                out: d.join("seeds"),
+                engine: vec!["pdr".into()],
+                ..args.clone()
+            },
+            &seeds,
+            &builder,
+            false,
+        )
+        .unwrap();
+        assert_eq!(ss.len(), 1);
+        assert_eq!(ss[0].mpe_m.per_seed.len(), 3);
+        // the test engine ignores the seed: no spread
+        assert_eq!(ss[0].mpe_m.sd, Some(0.0));
+        assert_eq!(ss[0].mpe_m.mean, pdr_all);
+        for s in seeds {
+            assert!(d.join(format!("seeds/seed-{s}/metrics.json")).is_file());
+        }
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.join("seeds/metrics.json")).unwrap())
+                .unwrap();
+        assert_eq!(json["seeds"], serde_json::json!([1, 2, 3]));
+        assert!(json["engines"][0]["coverage"]["mean"].as_f64() == Some(1.0));
         std::fs::remove_dir_all(&d).ok();
     }
 
@@ -413,6 +663,7 @@ mod tests {
             init: InitMode::None,
             split: Split::Odd,
             seed: None,
+            seeds: None,
             floor: None,
             strict: true,
             fingerprints: None,

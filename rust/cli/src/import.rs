@@ -13,10 +13,20 @@ pub enum Command {
 }
 
 /// Runs one `fpbp import` subcommand.
+/// A spinner with the elapsed time runs while it works (imports take up to
+/// ~10 s; the importers print their report when done).
 pub fn run(command: Command) -> anyhow::Result<()> {
-    match command {
+    let what = match &command {
+        Command::Ilc(_) => "importing the ILC floor",
+        Command::Ipin(_) => "importing the IPIN site (plans, beacons, truth checks)",
+        Command::Overlay(_) => "drawing the truth overlays",
+    };
+    let bar = crate::progress::spinner(what);
+    let r = match command {
         Command::Ilc(a) => crate::import_ilc::run(a),
         Command::Ipin(a) => crate::import_ipin::run(a),
         Command::Overlay(a) => crate::import_overlay::run(a),
-    }
+    };
+    bar.finish_and_clear();
+    r
 }

@@ -14,9 +14,11 @@ mod import_overlay;
 mod import_raster;
 mod import_truth;
 mod map_check;
+mod progress;
 mod radios;
 mod realism;
 mod replay;
+mod report;
 mod reproduce;
 mod simulate;
 
@@ -88,7 +90,40 @@ fn main() {
         Command::Fingerprint { command } => fingerprint::run(command),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", error_text(&e));
         std::process::exit(1);
+    }
+}
+
+/// The error and its causes joined by ": ", leaving out a cause whose text
+/// the message already holds (typed errors print their source themselves:
+/// no "Is a directory (os error 21): Is a directory (os error 21)").
+fn error_text(e: &anyhow::Error) -> String {
+    let mut s = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if s.contains(&c) {
+            continue;
+        }
+        if !s.is_empty() {
+            s.push_str(": ");
+        }
+        s.push_str(&c);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_cause_already_in_the_message_is_said_once() {
+        let io = std::io::Error::new(std::io::ErrorKind::IsADirectory, "Is a directory");
+        let e = anyhow::Error::new(fpbp_logs::LogError::Io {
+            file: "/tmp".into(),
+            source: io,
+        });
+        assert_eq!(super::error_text(&e), "/tmp: Is a directory");
+        let e = anyhow::anyhow!("inner").context("outer");
+        assert_eq!(super::error_text(&e), "outer: inner");
     }
 }

@@ -1,6 +1,8 @@
 //! `fpbp map check SITE.json --out DIR`: validates a site, prints its
 //! figures per floor and writes DIR/overlay.png (first floor) plus
-//! DIR/overlay-floor-ID.png for every further floor.
+//! DIR/overlay-floor-ID.png for every further floor: a figure with axes in
+//! metres, a scale bar and a legend; DIR/overlay-raw.png (and
+//! overlay-floor-ID-raw.png) hold the same layers at one pixel per plan pixel.
 
 use std::path::PathBuf;
 
@@ -113,17 +115,52 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         }
         let img = draw_overlay(&site, fs.id, &pts);
         let name = if k == 0 {
-            "overlay.png".to_string()
+            "overlay".to_string()
         } else {
-            format!("overlay-floor-{}.png", fs.id)
+            format!("overlay-floor-{}", fs.id)
         };
-        let path = args.out.join(name);
-        img.save(&path)
-            .with_context(|| format!("cannot write {}", path.display()))?;
-        println!("  overlay           {}", path.display());
+        // one image pixel per plan pixel (for exact checks) ...
+        let raw = args.out.join(format!("{name}-raw.png"));
+        img.save(&raw)
+            .with_context(|| format!("cannot write {}", raw.display()))?;
+        // ... and the figure: axes in metres, scale bar, legend
+        let path = args.out.join(format!("{name}.png"));
+        let c = |p: Rgba<u8>| plotters::style::RGBColor(p.0[0], p.0[1], p.0[2]);
+        crate::plot::floor_figure_png(
+            &path,
+            &crate::plot::FloorFigure {
+                title: format!("{}: floor {} ({})", site.spec.name, fs.id, fs.name),
+                image: &img,
+                width_m: map.width_m(),
+                height_m: map.height_m(),
+                points: &pts,
+                point_label: "truth points",
+                point_color: c(TRUTH_DOT),
+                legend: vec![
+                    ("rooms (one colour each)".into(), c(room_colour(0))),
+                    ("wall".into(), c(WALL)),
+                    ("door".into(), c(DOOR)),
+                    ("grid point".into(), c(GRID_DOT)),
+                    ("beacon".into(), c(BEACON)),
+                    ("door normal (1 m)".into(), c(NORMAL)),
+                ],
+            },
+        )?;
+        println!(
+            "  overlay           {} (plan pixels: {})",
+            path.display(),
+            raw.display()
+        );
     }
     Ok(())
 }
+
+const WALL: Rgba<u8> = Rgba([40, 40, 40, 255]);
+const DOOR: Rgba<u8> = Rgba([230, 20, 20, 255]);
+const GRID_DOT: Rgba<u8> = Rgba([60, 60, 90, 255]);
+const NORMAL: Rgba<u8> = Rgba([0, 150, 0, 255]);
+const BEACON: Rgba<u8> = Rgba([20, 60, 220, 255]);
+const TRUTH_DOT: Rgba<u8> = Rgba([220, 0, 220, 255]);
 
 /// A distinct pastel colour per room id (golden-angle hue walk).
 fn room_colour(id: u32) -> Rgba<u8> {
@@ -239,8 +276,8 @@ pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> Rgb
     for j in 0..h {
         for i in 0..w {
             let c = match map.feature_px(i as isize, j as isize) {
-                Feature::Wall => Rgba([40, 40, 40, 255]),
-                Feature::Door => Rgba([230, 20, 20, 255]),
+                Feature::Wall => WALL,
+                Feature::Door => DOOR,
                 Feature::Walkable => map
                     .room_of_px(i, j)
                     .map(room_colour)
@@ -252,22 +289,22 @@ pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> Rgb
     let r = map.pixels_per_meter();
     for g in map.grid() {
         let q = map.mcs_to_ics(*g);
-        disc(&mut img, q, (0.06 * r).max(0.5), Rgba([60, 60, 90, 255]));
+        disc(&mut img, q, (0.06 * r).max(0.5), GRID_DOT);
     }
     // Door normals: one per door side, 1 m long.
     for (i, j, n) in door_normal_samples(map) {
         let q = Vec2::new(i as f64 + 0.5, j as f64 + 0.5);
         // MCS normal -> ICS direction (flip y).
         let d = Vec2::new(n.x, -n.y) * r;
-        line(&mut img, q, q + d, Rgba([0, 150, 0, 255]));
+        line(&mut img, q, q + d, NORMAL);
     }
     for b in site.spec.beacons.iter().filter(|b| b.floor == floor) {
         let q = map.mcs_to_ics(Vec2::new(b.x_m, b.y_m));
-        disc(&mut img, q, (0.3 * r).max(2.0), Rgba([20, 60, 220, 255]));
+        disc(&mut img, q, (0.3 * r).max(2.0), BEACON);
     }
     for &(x, y) in extra_points {
         let q = map.mcs_to_ics(Vec2::new(x, y));
-        disc(&mut img, q, (0.15 * r).max(1.0), Rgba([220, 0, 220, 255]));
+        disc(&mut img, q, (0.15 * r).max(1.0), TRUTH_DOT);
     }
     img
 }

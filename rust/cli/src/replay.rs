@@ -2,14 +2,12 @@
 //! DIR/track.png.
 
 use std::collections::BTreeMap;
-use std::io::Write;
 use std::path::PathBuf;
 
 use anyhow::Context;
-use serde::Serialize;
 
 use crate::common::{self, EngineBuilder, EngineMetrics, InitMode, ReadSummary};
-use crate::plot;
+use crate::{plot, report};
 
 /// Arguments of `fpbp replay`.
 #[derive(clap::Args, Debug, Clone)]
@@ -20,7 +18,8 @@ pub struct Args {
     /// Log file (native v1, ILC trace or IPIN logfile; gzip or plain).
     #[arg(long)]
     pub log: PathBuf,
-    /// Engine name (see `fpbp eval --help` for the list).
+    /// Engine name: fpbp, bp, pdr, gml, trilat, frbw, ml, wcentroid, prox-pf,
+    /// ppsa, robust-ekf, tc-ekf (README.md, "Engines").
     #[arg(long)]
     pub engine: String,
     /// Output folder (created).
@@ -45,40 +44,45 @@ pub struct Args {
     pub strict: bool,
 }
 
-#[derive(Serialize)]
-struct ReplayMetrics<'a> {
-    format: &'static str,
-    version: u32,
-    site: String,
-    log: String,
-    #[serde(flatten)]
-    metrics: &'a EngineMetrics,
-    read_report: &'a fpbp_logs::ReadReport,
-}
-
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let m = run_with(&args, &common::core_builder)?;
+    let (m, empty) = run_inner(&args, &common::core_builder)?;
     let e = &m.errors;
     println!(
-        "{}: {} truth points, {} without fix, mean {} m, p50 {} m, p80 {} m, max {} m; realtime x{}",
+        "{} ({} start): {} truth points, {} without a pose (coverage {}), mean {} m, p50 {} m, p80 {} m, \
+         max {} m (over the points with a pose); {} jumps, {} wall crossings per 100 m; realtime x{}",
         m.engine,
+        m.start.name(),
         e.points,
         e.no_fix,
+        crate::eval::fmt_pct(e.coverage),
         common::fmt_opt(e.mpe_m, 2),
         common::fmt_opt(e.p50_m, 2),
         common::fmt_opt(e.p80_m, 2),
         common::fmt_opt(e.max_m, 2),
+        m.track.jumps,
+        common::fmt_opt(m.track.wall_crossings_per_100m, 1),
         common::fmt_opt(m.realtime_factor, 0)
     );
     println!(
         "wrote {}/{{track.csv,metrics.json,track.png}}",
         args.out.display()
     );
-    Ok(())
+    empty
 }
 
-/// Runs the replay with `build` and writes the outputs; returns the metrics.
+/// Runs the replay with `build` and writes the outputs; returns the metrics
+/// (an error, after writing, when the engine positioned nothing).
+#[cfg(test)]
 pub fn run_with(args: &Args, build: &EngineBuilder) -> anyhow::Result<EngineMetrics> {
+    let (m, empty) = run_inner(args, build)?;
+    empty.map(|_| m)
+}
+
+fn run_inner(
+    args: &Args,
+    build: &EngineBuilder,
+) -> anyhow::Result<(EngineMetrics, anyhow::Result<()>)> {
+    let started = std::time::Instant::now();
     let site = common::load_site(&args.site)?;
     let cfg = common::load_config(args.config.as_deref(), args.seed)?;
     let log = common::load_log(
@@ -88,46 +92,29 @@ pub fn run_with(args: &Args, build: &EngineBuilder) -> anyhow::Result<EngineMetr
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let run = common::run_log(build, &args.engine, &site, &cfg, args.init, &log)?;
-
-    let csv_path = args.out.join("track.csv");
-    let mut csv = std::io::BufWriter::new(
-        std::fs::File::create(&csv_path)
-            .with_context(|| format!("cannot create {}", csv_path.display()))?,
-    );
-    writeln!(csv, "t_s,x_m,y_m,floor,heading_rad,accuracy_m")?;
-    for p in &run.out.track {
-        writeln!(
-            csv,
-            "{},{},{},{},{},{}",
-            p.t_ns as f64 * 1e-9,
-            p.x_m,
-            p.y_m,
-            p.floor,
-            p.heading_rad,
-            p.accuracy_m
-        )?;
-    }
-    csv.flush()
-        .with_context(|| format!("cannot write {}", csv_path.display()))?;
+    report::write_track_csv(&args.out.join("track.csv"), &run.out)?;
 
     let read = ReadSummary::from(&log.report);
     let metrics = EngineMetrics::from_runs(
+        &site,
         &args.engine,
         args.init,
         std::slice::from_ref(&run),
         std::slice::from_ref(&read),
     );
-    let doc = ReplayMetrics {
-        format: "fpbp-replay-metrics",
-        version: 1,
-        site: args.site.display().to_string(),
-        log: args.log.display().to_string(),
-        metrics: &metrics,
-        read_report: &log.report,
-    };
-    let mp = args.out.join("metrics.json");
-    std::fs::write(&mp, serde_json::to_string_pretty(&doc)? + "\n")
-        .with_context(|| format!("cannot write {}", mp.display()))?;
+    report::MetricsDoc {
+        read_reports: vec![&log.report],
+        ..report::MetricsDoc::new(
+            "replay",
+            &args.site,
+            std::slice::from_ref(&args.log),
+            args.init,
+            vec![cfg.seed],
+            started.elapsed().as_secs_f64(),
+            std::slice::from_ref(&metrics),
+        )
+    }
+    .write(&args.out)?;
 
     // Draw the floor most of the track is on.
     let mut floors: BTreeMap<i32, usize> = BTreeMap::new();
@@ -141,16 +128,7 @@ pub fn run_with(args: &Args, build: &EngineBuilder) -> anyhow::Result<EngineMetr
     let plot = plot::TrackPlot {
         title: format!("{} on {} (floor {floor})", args.engine, log.name),
         map: site.floor(floor),
-        tracks: vec![plot::Series {
-            label: args.engine.clone(),
-            points: run
-                .out
-                .track
-                .iter()
-                .filter(|p| p.floor == floor)
-                .map(|p| (p.x_m, p.y_m))
-                .collect(),
-        }],
+        panels: vec![report::track_panel(&site, &args.engine, &run, floor)],
         // The start point (when the engine got one from truth) and the scored points.
         truth: run
             .init
@@ -167,7 +145,14 @@ pub fn run_with(args: &Args, build: &EngineBuilder) -> anyhow::Result<EngineMetr
             .collect(),
     };
     plot::track_png(&args.out.join("track.png"), &plot)?;
-    Ok(metrics)
+    let empty = report::check_positioned(
+        &site,
+        &[&log],
+        std::slice::from_ref(&args.engine),
+        std::slice::from_ref(&vec![run]),
+        &[&metrics],
+    );
+    Ok((metrics, empty))
 }
 
 #[cfg(test)]
@@ -196,20 +181,34 @@ mod tests {
         let m = run_with(&args, &builder).unwrap();
         assert_eq!(m.errors.points, 5);
         assert_eq!(m.errors.floor_accuracy, Some(1.0));
+        assert_eq!(m.start, report::StartMode::Truth);
         let csv = std::fs::read_to_string(d.join("out/track.csv")).unwrap();
         let mut lines = csv.lines();
-        assert_eq!(
-            lines.next(),
-            Some("t_s,x_m,y_m,floor,heading_rad,accuracy_m")
+        assert_eq!(lines.next(), Some(report::TRACK_CSV_HEADER));
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+        let poses: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == "pose").collect();
+        let truth: Vec<&Vec<&str>> = rows.iter().filter(|r| r[0] == "truth").collect();
+        assert!(poses.len() > 40, "{}", poses.len());
+        assert!(poses.iter().all(|r| r.len() == 13 && r[4] == "3"));
+        // 5 scored truth points, each with the truth and an error
+        assert_eq!(truth.len(), 5);
+        assert!(
+            truth
+                .iter()
+                .all(|r| r[12].parse::<f64>().unwrap() < 0.2 && r[11] == "3")
         );
-        let rows: Vec<Vec<f64>> = lines
-            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
-            .collect();
-        assert!(rows.len() > 40, "{}", rows.len());
-        assert!(rows.iter().all(|r| r.len() == 6 && r[3] == 3.0));
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(d.join("out/metrics.json")).unwrap())
                 .unwrap();
+        assert_eq!(
+            (&json["format"], &json["version"], &json["command"]),
+            (
+                &serde_json::json!("fpbp-metrics"),
+                &serde_json::json!(2),
+                &serde_json::json!("replay")
+            )
+        );
+        let eng = &json["engines"][0];
         for k in [
             "engine",
             "logs",
@@ -224,10 +223,13 @@ mod tests {
             "mct_us",
             "realtime_factor",
             "no_fix",
+            "coverage",
+            "start",
         ] {
-            assert!(json.get(k).is_some(), "missing {k}");
+            assert!(eng.get(k).is_some(), "missing {k}");
         }
-        assert_eq!(json["read_report"]["events"]["truth"], 6);
+        assert_eq!(eng["track"]["jumps"], 0);
+        assert_eq!(json["read_reports"][0]["events"]["truth"], 6);
         assert!(image::open(d.join("out/track.png")).is_ok());
         // An engine that does not exist is an error naming it.
         let e = run_with(

@@ -628,10 +628,14 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let dir = args.out.join(spec.replica);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot create {}", dir.display()))?;
-        let cdf: Vec<(String, Vec<f64>)> = r
+        let cdf: Vec<plot::CdfSeries> = r
             .variants
             .iter()
-            .map(|v| (v.label.clone(), v.pooled()))
+            .map(|v| plot::CdfSeries {
+                label: format!("{} ({} start)", v.label, v.start),
+                errors: v.pooled(),
+                points: v.errors.iter().flatten().map(|w| w.len()).sum(),
+            })
             .collect();
         plot::cdf_png(
             &dir.join("cdf.png"),

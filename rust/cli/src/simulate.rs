@@ -17,8 +17,8 @@ pub struct Args {
     /// Site file (site.json).
     #[arg(long)]
     pub site: PathBuf,
-    /// Length of the log, seconds.
-    #[arg(long, default_value_t = 180.0)]
+    /// Length of the log, seconds (0 < s <= 86400).
+    #[arg(long, default_value_t = 180.0, allow_hyphen_values = true, value_parser = seconds_arg)]
     pub seconds: f64,
     /// Seed of the simulator's random generator.
     #[arg(long, default_value_t = 1)]
@@ -39,6 +39,21 @@ pub struct Args {
     /// RSSI bias of the simulated phone, dB (overrides the profile).
     #[arg(long, allow_hyphen_values = true)]
     pub rssi_bias_dbm: Option<f64>,
+}
+
+/// `--seconds`: a finite number of seconds in (0, 86400].
+fn seconds_arg(s: &str) -> Result<f64, String> {
+    let v: f64 = s.trim().parse().map_err(|_| {
+        format!(
+            "`{}` is not a number of seconds",
+            fpbp_core::bounds::echo(s)
+        )
+    })?;
+    if v.is_finite() && v > 0.0 && v <= 86_400.0 {
+        Ok(v)
+    } else {
+        Err(format!("must be in (0, 86400] seconds, got {v}"))
+    }
 }
 
 /// Resolves `--profile`: a known name or a JSON file.
@@ -128,13 +143,16 @@ pub fn run(args: Args) -> Result<()> {
     let mut req = SimRequest::new(args.seconds, args.seed);
     req.floor = args.floor;
     req.profile = profile;
+    let bar = crate::progress::spinner(format!("simulating {} s of walking", args.seconds));
     let log = fpbp_sim::simulate(&site, &req)
         .with_context(|| format!("simulating on {}", args.site.display()))?;
+    bar.set_message(format!("writing {}", args.out.display()));
     let site_file = args
         .site
         .file_name()
         .map_or(String::new(), |s| s.to_string_lossy().into_owned());
     write_log(&log, &site_file, &args.out)?;
+    bar.finish_and_clear();
     let ble = log
         .events
         .iter()

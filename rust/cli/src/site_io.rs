@@ -15,9 +15,24 @@ pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
     let spec = SiteSpec::from_json(&bytes, &name)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let site = Site::build(spec, &name, &mut |plan: &str| {
-        let p = dir.join(plan);
-        std::fs::read(&p)
-            .map_err(|e| std::io::Error::new(e.kind(), format!("{}: {e}", p.display())))
+        read_plan_file(&dir.join(plan))
     })?;
     Ok(Arc::new(site))
+}
+
+/// Reads a plan file: only a regular file (a FIFO or device would block or
+/// never end, a directory is no plan) of at most
+/// [`fpbp_core::bounds::MAX_PLAN_FILE_BYTES`]. Errors name the path once.
+pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
+    use fpbp_core::bounds::{MAX_PLAN_FILE_BYTES, check_plan_file};
+    use std::io::Read;
+    let named = |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", p.display()));
+    check_plan_file(p, &std::fs::metadata(p).map_err(named)?)?;
+    let f = std::fs::File::open(p).map_err(named)?;
+    check_plan_file(p, &f.metadata().map_err(named)?)?;
+    let mut buf = Vec::new();
+    f.take(MAX_PLAN_FILE_BYTES)
+        .read_to_end(&mut buf)
+        .map_err(named)?;
+    Ok(buf)
 }

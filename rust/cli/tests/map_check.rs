@@ -47,8 +47,11 @@ fn demo_site_checks_and_writes_an_overlay() {
         "8+ rooms off the corridors plus the corridor: {stdout}"
     );
     assert!(stdout.contains("beacons           54"), "{stdout}");
-    let img = image::open(out.join("overlay.png")).unwrap();
+    let img = image::open(out.join("overlay-raw.png")).unwrap();
     assert_eq!((img.width(), img.height()), (640, 440));
+    // the figure: wider than the plan (axes, legend strip)
+    let fig = image::open(out.join("overlay.png")).unwrap();
+    assert!(fig.width() > 1000 && fig.height() > 440);
 }
 
 #[test]
@@ -76,7 +79,7 @@ fn truth_points_are_drawn() {
         stdout.contains("truth points      3 (1 off Walkable)"),
         "{stdout}"
     );
-    let img = image::open(out.join("overlay.png")).unwrap().to_rgba8();
+    let img = image::open(out.join("overlay-raw.png")).unwrap().to_rgba8();
     // MCS (5.0, 20.5) -> ICS (50, 235): magenta.
     assert_eq!(img.get_pixel(50, 235).0, [220, 0, 220, 255]);
 }

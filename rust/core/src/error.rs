@@ -37,6 +37,19 @@ pub enum Error {
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 impl Error {
+    /// A config error whose field path gains `prefix` (a section validated
+    /// on its own names its fields from the section: `fingerprint.x` becomes
+    /// `ekf.fingerprint.x`); other errors are unchanged.
+    pub fn within(self, prefix: &str) -> Self {
+        match self {
+            Error::Config { field, msg } => Error::Config {
+                field: format!("{prefix}{field}"),
+                msg,
+            },
+            e => e,
+        }
+    }
+
     /// Shorthand for a configuration error.
     pub fn config(field: impl Into<String>, msg: impl Into<String>) -> Self {
         Error::Config {

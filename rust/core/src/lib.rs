@@ -7,6 +7,7 @@
 #![forbid(unsafe_code)]
 
 pub mod ble;
+pub mod bounds;
 pub mod engine;
 pub mod engines;
 pub mod error;

@@ -5,6 +5,10 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::bounds::{
+    MAX_FLOOR_SIDE_M, MAX_GRID_CELLS, MAX_MAP_PIXELS, MAX_PIXELS_PER_METER, MAX_PLAN_SIDE_PX,
+    MIN_GRID_STEP_M, MIN_PIXELS_PER_METER, show,
+};
 use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
 use crate::{Error, Result};
 
@@ -177,8 +181,7 @@ impl SiteSpec {
     /// Does not validate ranges: [`Site::build`] does.
     pub fn from_json(bytes: &[u8], file_name: &str) -> Result<SiteSpec> {
         serde_json::from_slice(bytes).map_err(|e| {
-            let msg = e.to_string();
-            let field = json_path::path_at_error(bytes, e.line(), e.column(), &msg);
+            let (field, msg) = json_path::describe(bytes, &e);
             site_err(file_name, field, msg)
         })
     }
@@ -235,11 +238,14 @@ impl SiteSpec {
                 "wall, door and walkable colours must differ",
             ));
         }
-        if !(self.grid_interval_m > 0.0 && self.grid_interval_m.is_finite()) {
+        if !(self.grid_interval_m.is_finite() && self.grid_interval_m >= MIN_GRID_STEP_M) {
             return Err(site_err(
                 file,
                 "grid_interval_m",
-                format!("must be > 0, got {}", self.grid_interval_m),
+                format!(
+                    "must be finite and >= {MIN_GRID_STEP_M} m, got {}",
+                    show(self.grid_interval_m)
+                ),
             ));
         }
         if self.floors.is_empty() {
@@ -254,23 +260,23 @@ impl SiteSpec {
                     format!("duplicate floor id {}", f.id),
                 ));
             }
-            if let Some(r) = f.pixels_per_meter
-                && !(r > 0.0 && r.is_finite())
-            {
-                return Err(site_err(
-                    file,
-                    at("pixels_per_meter"),
-                    format!("must be > 0, got {r}"),
-                ));
-            }
-            if let Some(t) = f.target_pixels_per_meter
-                && !(t > 0.0 && t.is_finite())
-            {
-                return Err(site_err(
-                    file,
-                    at("target_pixels_per_meter"),
-                    format!("must be > 0, got {t}"),
-                ));
+            for (name, v) in [
+                ("pixels_per_meter", f.pixels_per_meter),
+                ("target_pixels_per_meter", f.target_pixels_per_meter),
+            ] {
+                if let Some(r) = v
+                    && !(r.is_finite()
+                        && (MIN_PIXELS_PER_METER..=MAX_PIXELS_PER_METER).contains(&r))
+                {
+                    return Err(site_err(
+                        file,
+                        at(name),
+                        format!(
+                            "must be in [{MIN_PIXELS_PER_METER}, {MAX_PIXELS_PER_METER}] px/m, got {}",
+                            show(r)
+                        ),
+                    ));
+                }
             }
             if !f.height_m.is_finite() {
                 return Err(site_err(file, at("height_m"), "must be finite"));
@@ -297,13 +303,9 @@ impl SiteSpec {
                         ));
                     }
                     let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
-                    if w * r > 20_000.0 || h * r > 20_000.0 {
-                        return Err(site_err(
-                            file,
-                            at("open_area_m"),
-                            "too large (over 20000 px a side)",
-                        ));
-                    }
+                    let (wp, hp) = open_floor_px(w, h, r);
+                    check_floor_size(wp, hp, r, self.grid_interval_m)
+                        .map_err(|msg| site_err(file, at("open_area_m"), msg))?;
                 }
                 (Some(_), Some(_)) => {
                     return Err(site_err(
@@ -391,12 +393,68 @@ impl SiteSpec {
     }
 }
 
+/// Pixel size of an open floor's generated plan (at least 3 x 3), as f64 so
+/// that a huge input cannot overflow before it is checked.
+fn open_floor_px(w_m: f64, h_m: f64, r: f64) -> (f64, f64) {
+    ((w_m * r).round().max(3.0), (h_m * r).round().max(3.0))
+}
+
+/// Checks a floor map's size before it is built: each side at most
+/// [`MAX_PLAN_SIDE_PX`] pixels and [`MAX_FLOOR_SIDE_M`] metres, at most
+/// [`MAX_MAP_PIXELS`] pixels, a grid of at most [`MAX_GRID_CELLS`] cells.
+/// The message says the value and the limit.
+pub fn check_floor_size(
+    w_px: f64,
+    h_px: f64,
+    r: f64,
+    grid_interval_m: f64,
+) -> std::result::Result<(), String> {
+    let (w_m, h_m) = (w_px / r, h_px / r);
+    if !(w_m <= MAX_FLOOR_SIDE_M && h_m <= MAX_FLOOR_SIDE_M) {
+        return Err(format!(
+            "floor is {} x {} m, over the limit of {MAX_FLOOR_SIDE_M} m a side",
+            show(w_m),
+            show(h_m)
+        ));
+    }
+    if !(w_px <= MAX_PLAN_SIDE_PX as f64 && h_px <= MAX_PLAN_SIDE_PX as f64) {
+        return Err(format!(
+            "plan is {} x {} px at {} px/m, over the limit of {MAX_PLAN_SIDE_PX} px a side",
+            show(w_px),
+            show(h_px),
+            show(r)
+        ));
+    }
+    let px = w_px * h_px;
+    if px > MAX_MAP_PIXELS as f64 {
+        return Err(format!(
+            "plan is {w_px} x {h_px} = {} px at {} px/m, over the limit of {MAX_MAP_PIXELS} px \
+             (lower pixels_per_meter or set target_pixels_per_meter)",
+            show(px),
+            show(r)
+        ));
+    }
+    let cells = crate::bounds::grid_cells(w_m, h_m, grid_interval_m);
+    if cells > MAX_GRID_CELLS as f64 {
+        return Err(format!(
+            "grid_interval_m {} on a {w_m:.1} x {h_m:.1} m floor gives {} grid cells, \
+             over the limit of {MAX_GRID_CELLS} (raise grid_interval_m)",
+            show(grid_interval_m),
+            show(cells)
+        ));
+    }
+    Ok(())
+}
+
 /// The map of an open floor: a walkable `w` x `h` m rectangle at `r` px/m
-/// whose outermost pixel ring is Wall.
-pub fn open_floor_map(w_m: f64, h_m: f64, r: f64, grid_interval_m: f64) -> FloorMap {
-    let w = ((w_m * r).round() as usize).max(3);
-    let h = ((h_m * r).round() as usize).max(3);
-    let mut f = vec![Feature::Walkable; w * h];
+/// whose outermost pixel ring is Wall. Sizes must have passed
+/// [`check_floor_size`] ([`SiteSpec::validate`] does it); memory that cannot
+/// be had is an error, not an abort.
+pub fn open_floor_map(w_m: f64, h_m: f64, r: f64, grid_interval_m: f64) -> Result<FloorMap> {
+    let (wf, hf) = open_floor_px(w_m, h_m, r);
+    check_floor_size(wf, hf, r, grid_interval_m).map_err(Error::Input)?;
+    let (w, h) = (wf as usize, hf as usize);
+    let mut f = crate::bounds::try_filled(w * h, Feature::Walkable, "open floor plan")?;
     for j in 0..h {
         for i in 0..w {
             if i == 0 || j == 0 || i == w - 1 || j == h - 1 {
@@ -404,7 +462,13 @@ pub fn open_floor_map(w_m: f64, h_m: f64, r: f64, grid_interval_m: f64) -> Floor
             }
         }
     }
-    FloorMap::from_features_with_grid(w, h, r, f, grid_interval_m)
+    Ok(FloorMap::from_features_with_grid(
+        w,
+        h,
+        r,
+        f,
+        grid_interval_m,
+    ))
 }
 
 impl Site {
@@ -435,6 +499,14 @@ impl Site {
                         .target_pixels_per_meter
                         .map(|t| FloorMap::downsample_factor(r, t))
                         .unwrap_or(1);
+                    // the downsampled size (blocks of kf, partial blocks kept)
+                    let (wk, hk) = (
+                        plan.width_px.div_ceil(kf.max(1)) as f64,
+                        plan.height_px.div_ceil(kf.max(1)) as f64,
+                    );
+                    check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m).map_err(
+                        |msg| site_err(site_file, &field, format!("plan {path}: {msg}")),
+                    )?;
                     let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
                     if map.walkable_pixel_count() == 0 {
                         return Err(site_err(
@@ -453,7 +525,10 @@ impl Site {
                     h,
                     f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER),
                     spec.grid_interval_m,
-                ),
+                )
+                .map_err(|e| {
+                    site_err(site_file, format!("floors[{k}].open_area_m"), e.to_string())
+                })?,
                 (None, None) => {
                     return Err(site_err(site_file, format!("floors[{k}].plan"), "missing"));
                 }
@@ -515,9 +590,40 @@ fn check_on_plan(
     Ok(())
 }
 
-mod json_path {
+pub(crate) mod json_path {
     //! The JSON path (`floors[0].pixels_per_meter`) at a serde_json error
     //! position, by scanning the text up to it.
+
+    /// The path of the field at fault and a message for a serde_json error
+    /// on `bytes`: NaN / Infinity (not JSON) are said as such, and a message
+    /// echoing input is cut to [`crate::bounds::MAX_MESSAGE_CHARS`].
+    pub(crate) fn describe(bytes: &[u8], e: &serde_json::Error) -> (String, String) {
+        let msg = e.to_string();
+        let path = path_at_error(bytes, e.line(), e.column(), &msg);
+        // serde_json's column points at the byte it stopped on (1-based)
+        let mut off = 0usize;
+        let mut l = 1usize;
+        while off < bytes.len() && l < e.line() {
+            if bytes[off] == b'\n' {
+                l += 1;
+            }
+            off += 1;
+        }
+        let at = (off + e.column().saturating_sub(1)).min(bytes.len());
+        let rest = &bytes[at..];
+        let word =
+            |w: &[u8]| rest.starts_with(w) || rest.get(1..).is_some_and(|r| r.starts_with(w));
+        let msg = if word(b"NaN") || word(b"Infinity") || word(b"-Infinity") {
+            format!(
+                "NaN and Infinity are not allowed (JSON numbers are finite) at line {}, column {}",
+                e.line(),
+                e.column()
+            )
+        } else {
+            crate::bounds::cut(&msg, crate::bounds::MAX_MESSAGE_CHARS)
+        };
+        (path, msg)
+    }
 
     enum Frame {
         Object { key: Option<String>, want_key: bool },

@@ -318,7 +318,7 @@ fn a_log_with_access_points_only_positions() {
     use fpbp_core::engine::{EngineConfig, build_engine, replay::replay};
     // an open 40 x 30 m floor with APs on a 10 m lattice
     let mut site = two_rooms_site();
-    site.floors = vec![fpbp_core::site::open_floor_map(40.0, 30.0, 5.0, 1.0)];
+    site.floors = vec![fpbp_core::site::open_floor_map(40.0, 30.0, 5.0, 1.0).unwrap()];
     site.spec.floors[0].open_area_m = Some([40.0, 30.0]);
     site.spec.floors[0].pixels_per_meter = Some(5.0);
     let cfg = crate::wifi::WifiSimConfig {

@@ -320,9 +320,7 @@ impl BleConfig {
         }
         non_negative("ble.phone_height_m", self.phone_height_m)?;
         positive("ble.min_distance_m", self.min_distance_m)?;
-        if self.mean_window_n == 0 {
-            return Err(Error::config("ble.mean_window_n", "must be >= 1"));
-        }
+        crate::bounds::check_count("ble.mean_window_n", self.mean_window_n, 1, 100_000)?;
         positive("ble.mean_reset_s", self.mean_reset_s)?;
         let g = &self.gml;
         if g.top_n < 3 {
@@ -350,12 +348,15 @@ impl BleConfig {
         if self.ml.top_n < 3 {
             return Err(Error::config("ble.ml.top_n", "must be >= 3"));
         }
-        if self.ml.max_iterations == 0 {
-            return Err(Error::config("ble.ml.max_iterations", "must be >= 1"));
-        }
+        crate::bounds::check_count(
+            "ble.ml.max_iterations",
+            self.ml.max_iterations as usize,
+            1,
+            crate::bounds::MAX_ITERATIONS,
+        )?;
         non_negative("ble.wcentroid.exponent", self.wcentroid.exponent)?;
         self.nlos.validate("ble.nlos")?;
-        self.floor.validate()?;
+        self.floor.validate().map_err(|e| e.within("ble."))?;
         self.calibration.validate()
     }
 }
@@ -391,7 +392,13 @@ impl CalibrationConfig {
             self.max_path_excess_dbm,
         )?;
         non_negative("ble.calibration.search_margin_m", self.search_margin_m)?;
-        positive("ble.calibration.coarse_step_m", self.coarse_step_m)?;
+        crate::bounds::check_grid_step("ble.calibration.coarse_step_m", self.coarse_step_m)?;
+        crate::bounds::check_range(
+            "ble.calibration.search_margin_m",
+            self.search_margin_m,
+            0.0,
+            crate::bounds::MAX_FLOOR_SIDE_M,
+        )?;
         positive("ble.calibration.huber_k_dbm", self.huber_k_dbm)
     }
 }

@@ -63,10 +63,8 @@ impl EngineConfig {
     /// Parses a JSON config (missing fields take their defaults, unknown ones are errors).
     pub fn from_json(text: &str) -> Result<Self> {
         let cfg: EngineConfig = serde_json::from_str(text).map_err(|e| {
-            crate::Error::config(
-                format!("(line {}, column {})", e.line(), e.column()),
-                e.to_string(),
-            )
+            let (field, msg) = crate::site::json_path::describe(text.as_bytes(), &e);
+            crate::Error::config(field, msg)
         })?;
         cfg.validate()?;
         Ok(cfg)

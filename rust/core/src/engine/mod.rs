@@ -16,7 +16,9 @@ use serde::{Deserialize, Serialize};
 use crate::events::{BleObservation, GnssFix, SensorEvent, WifiScan};
 
 pub use config::{EngineConfig, TaskConfig};
-pub use factory::{ENGINE_NAMES, EngineData, build_engine, build_engine_with};
+pub use factory::{
+    ENGINE_NAMES, EngineData, build_engine, build_engine_with, check_initial_position,
+};
 
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]

@@ -88,6 +88,7 @@ impl Default for PpsaConfig {
 impl PpsaConfig {
     /// Checks every field; errors name it.
     pub fn validate(&self) -> Result<()> {
+        crate::bounds::check_range("ppsa.slot_s", self.slot_s, 0.01, 3600.0)?;
         for (f, v) in [
             ("slot_s", self.slot_s),
             ("radius_factor", self.radius_factor),

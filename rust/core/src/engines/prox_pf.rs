@@ -129,7 +129,7 @@ impl ProxPfConfig {
                 "must be in 1..=1000000",
             ));
         }
-        pos("period_s", self.period_s)?;
+        crate::bounds::check_range("prox_pf.period_s", self.period_s, 0.01, 3600.0)?;
         pos("step_length_m", self.step_length_m)?;
         nonneg("step_length_noise_m", self.step_length_noise_m)?;
         nonneg("heading_noise_deg", self.heading_noise_deg)?;
@@ -140,7 +140,13 @@ impl ProxPfConfig {
             ));
         }
         nonneg("wall_rule_beacon_margin_m", self.wall_rule_beacon_margin_m)?;
-        pos("raycast_step_m", self.raycast_step_m)?;
+        crate::bounds::check_ray_step("prox_pf.raycast_step_m", self.raycast_step_m)?;
+        crate::bounds::check_range(
+            "prox_pf.init_radius_m",
+            self.init_radius_m,
+            0.0,
+            crate::bounds::MAX_FLOOR_SIDE_M,
+        )?;
         pos("init_radius_m", self.init_radius_m)?;
         nonneg("initial_weight", self.initial_weight)?;
         self.proximity.validate("prox_pf.proximity")

@@ -91,11 +91,31 @@ impl FingerprintConfig {
     /// Checks every field's range, naming the bad one.
     pub fn validate(&self) -> Result<()> {
         let bad = |f: &str, m: &str| Err(Error::config(format!("fingerprint.{f}"), m.to_string()));
-        if !(self.grid_step_m.is_finite() && self.grid_step_m > 0.0) {
-            return bad("grid_step_m", "must be finite and > 0");
-        }
-        if self.max_points_per_floor < 2 {
-            return bad("max_points_per_floor", "must be >= 2");
+        use crate::bounds::{
+            MAX_AP_WORK, MAX_FINGERPRINT_POINTS, MAX_ITERATIONS, check_count, check_grid_step,
+        };
+        check_grid_step("fingerprint.grid_step_m", self.grid_step_m)?;
+        check_count(
+            "fingerprint.max_points_per_floor",
+            self.max_points_per_floor,
+            2,
+            MAX_FINGERPRINT_POINTS,
+        )?;
+        check_count(
+            "fingerprint.ap_iterations",
+            self.ap_iterations,
+            1,
+            MAX_ITERATIONS,
+        )?;
+        let work = self.ap_iterations as f64 * (self.max_points_per_floor as f64).powi(2);
+        if work > MAX_AP_WORK {
+            return Err(Error::config(
+                "fingerprint.ap_iterations",
+                format!(
+                    "ap_iterations x max_points_per_floor^2 = {work:e} is over the limit of \
+                     {MAX_AP_WORK:e} (affinity propagation would not finish)"
+                ),
+            ));
         }
         if !self.missing_rssi_dbm.is_finite() {
             return bad("missing_rssi_dbm", "must be finite");
@@ -103,15 +123,13 @@ impl FingerprintConfig {
         if !(0.5..1.0).contains(&self.ap_damping) {
             return bad("ap_damping", "must be in [0.5, 1)");
         }
-        if self.ap_iterations == 0
-            || self.density_k == 0
-            || self.wknn_k == 0
-            || self.search_clusters == 0
-        {
-            return bad(
-                "ap_iterations/density_k/wknn_k/search_clusters",
-                "must be >= 1",
-            );
+        for (f, v) in [
+            ("density_k", self.density_k),
+            ("wknn_k", self.wknn_k),
+            ("search_clusters", self.search_clusters),
+            ("scan_max_beacons", self.scan_max_beacons),
+        ] {
+            check_count(&format!("fingerprint.{f}"), v, 1, MAX_FINGERPRINT_POINTS)?;
         }
         for (f, v) in [
             ("survey_sample_interval_s", self.survey_sample_interval_s),

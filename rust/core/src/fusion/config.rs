@@ -114,7 +114,7 @@ impl PpcConfig {
     pub fn validate(&self) -> Result<()> {
         let pos = |v: f64, name: &str| in_range(v, v > 0.0, "fusion.ppc.", name, "must be > 0");
         pos(self.phi_rad, "phi_rad")?;
-        pos(self.raycast_step_m, "raycast_step_m")?;
+        crate::bounds::check_ray_step("fusion.ppc.raycast_step_m", self.raycast_step_m)?;
         pos(self.door_search_m, "door_search_m")?;
         if !(self.door_snap_m.is_finite() && (0.0..=10.0).contains(&self.door_snap_m)) {
             return Err(Error::config(

@@ -111,8 +111,8 @@ impl Default for EkfConfig {
 impl EkfConfig {
     /// Checks every field's range, naming the bad one.
     pub fn validate(&self) -> Result<()> {
-        self.floor.validate()?;
-        self.fingerprint.validate()?;
+        self.floor.validate().map_err(|e| e.within("ekf."))?;
+        self.fingerprint.validate().map_err(|e| e.within("ekf."))?;
         if !(self.igg3_k0 > 0.0 && self.igg3_k1 > self.igg3_k0 && self.igg3_k1.is_finite()) {
             return Err(Error::config("ekf.igg3_k1", "need 0 < igg3_k0 < igg3_k1"));
         }
@@ -145,12 +145,14 @@ impl EkfConfig {
         if !(self.proximity_rssi_dbm.is_finite() && self.ranging_rssi_dbm.is_finite()) {
             return Err(Error::config("ekf.proximity_rssi_dbm", "must be finite"));
         }
-        if self.ranging_max_beacons == 0 || self.gnss_window == 0 {
-            return Err(Error::config(
-                "ekf.ranging_max_beacons/gnss_window",
-                "must be >= 1",
-            ));
-        }
+        use crate::bounds::check_count;
+        check_count(
+            "ekf.ranging_max_beacons",
+            self.ranging_max_beacons,
+            1,
+            10_000,
+        )?;
+        check_count("ekf.gnss_window", self.gnss_window, 1, 10_000)?;
         Ok(())
     }
 }

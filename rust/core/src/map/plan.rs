@@ -61,22 +61,42 @@ pub fn classify_rgb(rgb: [u8; 3], legend: &Legend) -> (Feature, bool) {
 /// Decodes `png_bytes` and classifies every pixel with `legend`. Alpha is
 /// ignored (the plan is expected opaque). `file` names the plan in errors.
 pub fn classify_png(png_bytes: &[u8], legend: &Legend, file: &str) -> Result<ClassifiedPlan> {
-    let img =
-        image::load_from_memory_with_format(png_bytes, image::ImageFormat::Png).map_err(|e| {
-            Error::Plan {
-                file: file.to_string(),
-                msg: format!("not a decodable PNG: {e}"),
-            }
-        })?;
-    let rgb = img.to_rgb8();
-    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
+    use crate::bounds::{MAX_PLAN_PIXELS, MAX_PLAN_SIDE_PX};
+    let plan_err = |msg: String| Error::Plan {
+        file: file.to_string(),
+        msg,
+    };
+    let reader = || {
+        image::ImageReader::with_format(std::io::Cursor::new(png_bytes), image::ImageFormat::Png)
+    };
+    // The size is read from the header and checked before anything is decoded.
+    let (w, h) = reader()
+        .into_dimensions()
+        .map_err(|e| plan_err(format!("not a decodable PNG: {e}")))?;
+    let (w, h) = (w as usize, h as usize);
     if w == 0 || h == 0 {
-        return Err(Error::Plan {
-            file: file.to_string(),
-            msg: "image has zero size".into(),
-        });
+        return Err(plan_err("image has zero size".into()));
     }
-    let mut features = Vec::with_capacity(w * h);
+    if w > MAX_PLAN_SIDE_PX || h > MAX_PLAN_SIDE_PX || w * h > MAX_PLAN_PIXELS {
+        return Err(plan_err(format!(
+            "image is {w} x {h} px, over the limit of {MAX_PLAN_SIDE_PX} px a side and \
+             {MAX_PLAN_PIXELS} px in all"
+        )));
+    }
+    let mut limits = image::Limits::default();
+    limits.max_image_width = Some(MAX_PLAN_SIDE_PX as u32);
+    limits.max_image_height = Some(MAX_PLAN_SIDE_PX as u32);
+    limits.max_alloc = Some(8 * MAX_PLAN_PIXELS as u64);
+    let mut decoder = reader();
+    decoder.limits(limits);
+    let img = decoder
+        .decode()
+        .map_err(|e| plan_err(format!("not a decodable PNG: {e}")))?;
+    let rgb = img.to_rgb8();
+    let mut features = Vec::new();
+    features
+        .try_reserve_exact(w * h)
+        .map_err(|e| plan_err(format!("cannot allocate {w} x {h} classified pixels: {e}")))?;
     let mut unclassified = 0usize;
     for p in rgb.pixels() {
         let (f, ok) = classify_rgb(p.0, legend);
@@ -149,6 +169,36 @@ mod tests {
             s.contains("green.png") && s.contains("max_unclassified_fraction"),
             "{s}"
         );
+    }
+
+    fn crc32(data: &[u8]) -> u32 {
+        let mut c = !0u32;
+        for &b in data {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 != 0 {
+                    0xEDB8_8320 ^ (c >> 1)
+                } else {
+                    c >> 1
+                };
+            }
+        }
+        !c
+    }
+
+    #[test]
+    fn oversized_png_header_is_refused_before_decoding() {
+        // A valid 1 x 1 PNG whose IHDR claims 30000 x 30000: refused from the
+        // header (the pixel data is never decoded, so nothing is allocated).
+        let mut bytes = png(1, 1, |_, _| [255, 255, 255]);
+        bytes[16..20].copy_from_slice(&30_000u32.to_be_bytes());
+        bytes[20..24].copy_from_slice(&30_000u32.to_be_bytes());
+        // IHDR's CRC covers its type and data (bytes 12..29)
+        let crc = crc32(&bytes[12..29]);
+        bytes[29..33].copy_from_slice(&crc.to_be_bytes());
+        let e = classify_png(&bytes, &Legend::default(), "big.png").unwrap_err();
+        let s = e.to_string();
+        assert!(s.contains("big.png") && s.contains("over the limit"), "{s}");
     }
 
     #[test]

@@ -117,7 +117,11 @@ fn zero_or_negative_resolution() {
     for r in ["0.0", "-10.0"] {
         let (field, msg) = err(&GOOD.replace("10.0 }", &format!("{r} }}")));
         assert_eq!(field, "floors[0].pixels_per_meter", "{msg}");
-        assert!(msg.contains("> 0"));
+        let got = format!("got {}", r.parse::<f64>().unwrap());
+        assert!(
+            msg.contains("[0.01, 1000] px/m") && msg.contains(&got),
+            "{msg}"
+        );
     }
     let (field, _) = err(&GOOD.replace(r#", "pixels_per_meter": 10.0"#, ""));
     assert_eq!(field, "floors[0].pixels_per_meter");

@@ -29,7 +29,8 @@ pub struct Args {
     #[arg(long, num_args = 1.., required = true)]
     pub logs: Vec<PathBuf>,
     /// Engine names, comma-separated: fpbp, bp, pdr, gml, trilat, frbw, ml,
-    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf (README.md, "Engines").
+    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md,
+    /// "Engines").
     #[arg(long, value_delimiter = ',', required = true)]
     pub engine: Vec<String>,
     /// Output folder (created).

@@ -19,7 +19,7 @@ pub struct Args {
     #[arg(long)]
     pub log: PathBuf,
     /// Engine name: fpbp, bp, pdr, gml, trilat, frbw, ml, wcentroid, prox-pf,
-    /// ppsa, robust-ekf, tc-ekf (README.md, "Engines").
+    /// ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md, "Engines").
     #[arg(long)]
     pub engine: String,
     /// Output folder (created).

@@ -16,7 +16,7 @@
 # 5. runs host-tests/android-check.sh (Android targets, best effort).
 #
 # Options: --bench  run only the JNI per-call overhead benchmark (prints figures).
-# Env: FPBP_ENGINE (engine of the replay test, default fpbp),
+# Env: FPBP_ENGINE (engine of the replay test, default tcpf: the SDK default),
 #      FPBP_REPLAY_LOG (log to replay, default: host-tests/logs/demo-walk-1.log.gz,
 #      else the first of host-tests/logs/*.log* by name),
 #      FPBP_REPLAY_SITE (default maps/demo/site.json).
@@ -46,7 +46,7 @@ lib="$target/release"
 
 out="$target/fpbp-host-tests"
 mkdir -p "$out"
-engine="${FPBP_ENGINE:-fpbp}"
+engine="${FPBP_ENGINE:-tcpf}"
 site="${FPBP_REPLAY_SITE:-$repo/maps/demo/site.json}"
 default_log="$repo/host-tests/logs/demo-walk-1.log.gz"
 [ -f "$default_log" ] || default_log="$(ls "$repo"/host-tests/logs/*.log "$repo"/host-tests/logs/*.log.gz 2>/dev/null | sort | head -n 1 || true)"

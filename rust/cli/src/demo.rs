@@ -1,4 +1,5 @@
-//! `fpbp demo`: the main job. Runs fpbp, bp, gml and pdr on the demo site
+//! `fpbp demo`: the main job. Runs tcpf (the default engine), fpbp, bp, gml
+//! and pdr on the demo site
 //! and its shipped simulated logs, prints one table (mean / p50 / p80 error,
 //! mean compute time per task, real-time factor, poses inside walls) and
 //! writes OUT/track_<log>.png (one panel per engine over the plan),
@@ -32,7 +33,7 @@ pub struct Args {
     #[arg(long, default_value = "out/demo")]
     pub out: PathBuf,
     /// Engines to run, comma-separated.
-    #[arg(long, default_value = "fpbp,bp,gml,pdr", value_delimiter = ',')]
+    #[arg(long, default_value = "tcpf,fpbp,bp,gml,pdr", value_delimiter = ',')]
     pub engines: Vec<String>,
     /// Engine config JSON (docs/parameters.md); defaults when absent.
     #[arg(long)]

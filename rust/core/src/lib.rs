@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod kalman;
 pub mod map;
 pub mod pdr;
+pub mod radio;
 pub mod site;
 pub mod wifi;
 

@@ -41,6 +41,8 @@ pub struct EngineConfig {
     pub ekf: crate::kalman::EkfConfig,
     /// WiFi: fresh results, BSSID grouping, AP calibration, `wifi-wcentroid`.
     pub wifi: crate::wifi::WifiConfig,
+    /// Engine `tcpf` (tightly coupled radio-likelihood particle filter).
+    pub tcpf: crate::engines::tcpf::TcpfConfig,
 }
 
 impl Default for EngineConfig {
@@ -55,6 +57,7 @@ impl Default for EngineConfig {
             ppsa: Default::default(),
             ekf: crate::kalman::EkfConfig::default(),
             wifi: crate::wifi::WifiConfig::default(),
+            tcpf: Default::default(),
         }
     }
 }
@@ -87,6 +90,7 @@ impl EngineConfig {
         self.ppsa.validate()?;
         self.ekf.validate()?;
         self.wifi.validate()?;
+        self.tcpf.validate()?;
         self.fusion.validate()
     }
 }

@@ -9,6 +9,7 @@ use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
 pub const ENGINE_NAMES: &[&str] = &[
+    "tcpf",
     "fpbp",
     "bp",
     "pdr",
@@ -114,6 +115,9 @@ pub fn build_engine_with(
             config,
             name == "fpbp",
             init,
+        )?)),
+        "tcpf" => Ok(Box::new(crate::engines::tcpf::TcpfEngine::new(
+            site, config, init,
         )?)),
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
             site, config, init,

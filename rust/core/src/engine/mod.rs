@@ -115,6 +115,10 @@ pub struct EngineStats {
     /// Access-point results in those scans.
     #[serde(default)]
     pub wifi_results: u64,
+    /// The phone's RSSI offset the engine estimates online (heard minus
+    /// model, dB), for engines that estimate one (`tcpf`).
+    #[serde(default)]
+    pub rssi_offset_db: Option<f64>,
 }
 
 impl EngineStats {

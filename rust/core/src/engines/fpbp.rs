@@ -52,7 +52,7 @@ pub struct PpcCounts {
 
 /// The nearest walkable point to `p` on rings of 0.1 m spacing (32 bearings
 /// each), up to `max_m`.
-fn nearest_walkable(map: &crate::map::FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
+pub(crate) fn nearest_walkable(map: &crate::map::FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
     let rings = (max_m / 0.1).ceil() as usize;
     (1..=rings).find_map(|k| {
         let r = k as f64 * 0.1;

@@ -8,3 +8,4 @@ pub mod ppsa;
 pub mod prox_pf;
 pub mod robust_ekf;
 pub mod tc_ekf;
+pub mod tcpf;

@@ -599,6 +599,131 @@ impl ParticleFilter {
         n
     }
 
+    /// Draws a point from `cells` with probability `probs` (cumulative,
+    /// last = 1), jittered uniformly within +-`jitter_m` / 2 per axis while
+    /// `accept` takes it (up to 8 tries, else the cell centre).
+    fn draw_cell(
+        rng: &mut Pcg64,
+        cells: &[Vec2],
+        cdf: &[f64],
+        jitter_m: f64,
+        accept: &impl Fn(Vec2) -> bool,
+    ) -> Vec2 {
+        let u: f64 = rng.random::<f64>();
+        let k = cdf.partition_point(|&c| c < u).min(cells.len() - 1);
+        let c = cells[k];
+        for _ in 0..8 {
+            let q = c + Vec2::new(
+                jitter_m * (rng.random::<f64>() - 0.5),
+                jitter_m * (rng.random::<f64>() - 0.5),
+            );
+            if accept(q) {
+                return q;
+            }
+        }
+        c
+    }
+
+    /// Cumulative distribution of `weights` (non-negative; uniform when
+    /// they sum to 0 or are not finite).
+    pub fn cumulative(weights: &[f64]) -> Vec<f64> {
+        let total: f64 = weights.iter().sum();
+        let ok = total.is_finite() && total > 0.0;
+        let n = weights.len().max(1) as f64;
+        let mut acc = 0.0;
+        weights
+            .iter()
+            .map(|w| {
+                acc += if ok { w / total } else { 1.0 / n };
+                acc
+            })
+            .collect()
+    }
+
+    /// Global start: the m particles drawn from `cells` with probability
+    /// proportional to `weights` (a likelihood surface over the walkable
+    /// area), jittered within the cell (`jitter_m`) on ground `accept`
+    /// takes; weights 1/m; heading offsets and step scales drawn as in
+    /// [`ParticleFilter::init_at`]. Nothing happens without cells.
+    pub fn init_from_cells(
+        &mut self,
+        cells: &[Vec2],
+        weights: &[f64],
+        jitter_m: f64,
+        accept: impl Fn(Vec2) -> bool,
+    ) {
+        if cells.is_empty() || cells.len() != weights.len() {
+            return;
+        }
+        let cdf = Self::cumulative(weights);
+        let first = cells[0];
+        self.init_at(first, 0.0, |_| true);
+        for i in 0..self.particles.len() {
+            self.particles[i] = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+        }
+    }
+
+    /// Re-seeding from a likelihood surface (augmented MCL): replaces
+    /// `round(fraction * m)` particles chosen at random by draws as in
+    /// [`ParticleFilter::init_from_cells`]; each keeps its heading offset
+    /// and step scale. Weights are set uniform. Returns how many.
+    pub fn inject_from_cells(
+        &mut self,
+        fraction: f64,
+        cells: &[Vec2],
+        weights: &[f64],
+        jitter_m: f64,
+        accept: impl Fn(Vec2) -> bool,
+    ) -> usize {
+        let m = self.particles.len();
+        if m == 0
+            || cells.is_empty()
+            || cells.len() != weights.len()
+            || fraction.is_nan()
+            || fraction <= 0.0
+        {
+            return 0;
+        }
+        let cdf = Self::cumulative(weights);
+        let k = ((fraction.min(1.0) * m as f64).round() as usize).min(m);
+        for _ in 0..k {
+            let i = ((self.rng.random::<f64>() * m as f64) as usize).min(m - 1);
+            self.particles[i] = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+        }
+        let u = 1.0 / m as f64;
+        self.weights.iter_mut().for_each(|w| *w = u);
+        k
+    }
+
+    /// Multiplies every weight by exp(`log_l[i]` - max) and renormalises
+    /// (a measurement update given as log-likelihoods; non-finite entries
+    /// count as -inf). Uniform when every particle gets 0.
+    pub fn weight_log(&mut self, log_l: &[f64]) {
+        if self.particles.is_empty() || log_l.len() != self.particles.len() {
+            return;
+        }
+        let max = log_l
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() {
+            return;
+        }
+        for (w, l) in self.weights.iter_mut().zip(log_l) {
+            *w *= if l.is_finite() { (l - max).exp() } else { 0.0 };
+        }
+        self.normalize();
+    }
+
+    /// Puts every particle back at `positions` (same length; a move every
+    /// particle made through a wall is undone). Weights are kept.
+    pub fn restore_positions(&mut self, positions: &[Vec2]) {
+        if positions.len() == self.particles.len() {
+            self.particles.copy_from_slice(positions);
+        }
+    }
+
     /// Particle positions.
     pub fn particles(&self) -> &[Vec2] {
         &self.particles

@@ -8,7 +8,7 @@ object FpbpDefaults {
      * The engine [FpbpEngine.start] and the Android [io.fpbp.android.FpbpPositioning]
      * run when the app names none (the sample app uses it too).
      */
-    const val ENGINE: String = "fpbp"
+    const val ENGINE: String = "tcpf"
 }
 
 /**

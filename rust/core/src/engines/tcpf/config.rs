@@ -1,0 +1,193 @@
+//! `tcpf` section of the engine config (docs/parameters.md "tcpf" gives
+//! every default's source).
+
+use serde::{Deserialize, Serialize};
+
+use crate::Result;
+use crate::fusion::FusionConfig;
+use crate::radio::LikelihoodConfig;
+use crate::radio::offset::OffsetConfig;
+
+/// Settings of engine `tcpf`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct TcpfConfig {
+    /// Particles.
+    pub particle_count: usize,
+    /// Uniform step-length and heading noise of a move (half-widths).
+    pub step_noise_m: f64,
+    pub heading_noise_rad: f64,
+    /// Per-particle persistent heading offset (sd at the start, rad) and
+    /// its random walk per step.
+    pub heading_offset_sd_rad: f64,
+    pub heading_offset_walk_rad: f64,
+    /// Per-particle step-length scale (sd at the start) and its walk.
+    pub step_scale_sd: f64,
+    pub step_scale_walk: f64,
+    /// Gaussian position noise added to every move (roughening), metres.
+    pub position_noise_m: f64,
+    /// Resample when the effective sample size falls below this fraction.
+    pub resample_ess_fraction: f64,
+    /// Spacing of the start / re-seeding cells over the walkable area, m.
+    pub cell_m: f64,
+    /// The global start needs this many transmitters in one update.
+    pub start_min_transmitters: usize,
+    /// On a site with beacons on several floors, the start waits up to
+    /// this long (after the first radio update) for a beacon to pick the
+    /// floor, s.
+    pub start_wait_ble_s: f64,
+    /// Augmented MCL: slow and fast averages of the per-transmitter
+    /// likelihood, and the largest fraction re-seeded per update.
+    pub recovery_alpha_slow: f64,
+    pub recovery_alpha_fast: f64,
+    pub recovery_max_fraction: f64,
+    /// Without a barometer, a floor change needs this many consecutive
+    /// radio updates voting for the other floor.
+    pub floor_switch_votes: u32,
+    /// The published point is held (not moved through a wall) for at most
+    /// this many fusion runs before it follows the cloud anyway.
+    pub max_hold_runs: u32,
+    /// Accuracy radius: this quantile of the weighted particle distances
+    /// from the published point, times `accuracy_scale`, at least
+    /// `accuracy_min_m`.
+    pub accuracy_quantile: f64,
+    pub accuracy_scale: f64,
+    pub accuracy_min_m: f64,
+    /// Only WiFi results at most this old (vs their scan) are used, s; an
+    /// AP not heard for this long while WiFi scans counts as missed.
+    pub wifi_max_age_s: f64,
+    /// A beacon not heard for this long while BLE scans counts as missed, s.
+    pub ble_miss_after_s: f64,
+    /// Readings weaker than this are not used, dBm.
+    pub min_rssi_dbm: f64,
+    pub likelihood: LikelihoodConfig,
+    pub offset: OffsetConfig,
+}
+
+impl Default for TcpfConfig {
+    fn default() -> Self {
+        TcpfConfig {
+            particle_count: 1000,
+            step_noise_m: 0.15,
+            heading_noise_rad: 0.15,
+            heading_offset_sd_rad: 0.15,
+            heading_offset_walk_rad: 0.01,
+            step_scale_sd: 0.1,
+            step_scale_walk: 0.005,
+            position_noise_m: 0.05,
+            resample_ess_fraction: 0.5,
+            cell_m: 2.0,
+            start_min_transmitters: 1,
+            start_wait_ble_s: 5.0,
+            recovery_alpha_slow: 0.05,
+            recovery_alpha_fast: 0.5,
+            recovery_max_fraction: 0.2,
+            floor_switch_votes: 3,
+            max_hold_runs: 5,
+            accuracy_quantile: 0.68,
+            accuracy_scale: 1.0,
+            accuracy_min_m: 1.0,
+            wifi_max_age_s: 4.0,
+            ble_miss_after_s: 3.0,
+            min_rssi_dbm: -100.0,
+            likelihood: LikelihoodConfig::default(),
+            offset: OffsetConfig::default(),
+        }
+    }
+}
+
+impl TcpfConfig {
+    /// Checks every field's range; errors name `tcpf.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        if !(1..=100_000).contains(&self.particle_count) {
+            return Err(crate::Error::config(
+                "tcpf.particle_count",
+                format!("must be in 1..=100000, got {}", self.particle_count),
+            ));
+        }
+        for (f, v, lo, hi) in [
+            ("step_noise_m", self.step_noise_m, 0.0, 5.0),
+            ("heading_noise_rad", self.heading_noise_rad, 0.0, 3.2),
+            (
+                "heading_offset_sd_rad",
+                self.heading_offset_sd_rad,
+                0.0,
+                1.0,
+            ),
+            (
+                "heading_offset_walk_rad",
+                self.heading_offset_walk_rad,
+                0.0,
+                1.0,
+            ),
+            ("step_scale_sd", self.step_scale_sd, 0.0, 1.0),
+            ("step_scale_walk", self.step_scale_walk, 0.0, 1.0),
+            ("position_noise_m", self.position_noise_m, 0.0, 10.0),
+            (
+                "resample_ess_fraction",
+                self.resample_ess_fraction,
+                0.0,
+                1.0,
+            ),
+            ("cell_m", self.cell_m, 0.25, 50.0),
+            ("start_wait_ble_s", self.start_wait_ble_s, 0.0, 600.0),
+            ("recovery_alpha_slow", self.recovery_alpha_slow, 0.0, 1.0),
+            ("recovery_alpha_fast", self.recovery_alpha_fast, 0.0, 1.0),
+            (
+                "recovery_max_fraction",
+                self.recovery_max_fraction,
+                0.0,
+                1.0,
+            ),
+            ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
+            ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
+            ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
+            ("wifi_max_age_s", self.wifi_max_age_s, 0.0, 600.0),
+            ("ble_miss_after_s", self.ble_miss_after_s, 0.0, 600.0),
+            ("min_rssi_dbm", self.min_rssi_dbm, -200.0, 0.0),
+        ] {
+            if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                return Err(crate::Error::config(
+                    format!("tcpf.{f}"),
+                    format!("must be in [{lo}, {hi}], got {v}"),
+                ));
+            }
+        }
+        if self.recovery_alpha_slow > self.recovery_alpha_fast {
+            return Err(crate::Error::config(
+                "tcpf.recovery_alpha_slow",
+                "must not exceed recovery_alpha_fast",
+            ));
+        }
+        if !(1..=64).contains(&self.start_min_transmitters) {
+            return Err(crate::Error::config(
+                "tcpf.start_min_transmitters",
+                "must be in 1..=64",
+            ));
+        }
+        if self.floor_switch_votes > 1000 || self.max_hold_runs > 1000 {
+            return Err(crate::Error::config(
+                "tcpf.floor_switch_votes",
+                "floor_switch_votes and max_hold_runs must be <= 1000",
+            ));
+        }
+        self.likelihood.validate()?;
+        self.offset.validate()
+    }
+
+    /// The particle filter's settings (the shared [`crate::fusion::ParticleFilter`]).
+    pub fn filter(&self) -> FusionConfig {
+        FusionConfig {
+            particle_count: self.particle_count,
+            step_noise_m: self.step_noise_m,
+            heading_noise_rad: self.heading_noise_rad,
+            heading_offset_sd_rad: self.heading_offset_sd_rad,
+            heading_offset_walk_rad: self.heading_offset_walk_rad,
+            heading_offset_corr_steps: 0.0,
+            step_scale_sd: self.step_scale_sd,
+            step_scale_walk: self.step_scale_walk,
+            resample_ess_fraction: self.resample_ess_fraction,
+            ..FusionConfig::default()
+        }
+    }
+}

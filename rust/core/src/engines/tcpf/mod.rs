@@ -1,0 +1,783 @@
+//! Engine `tcpf`: a tightly coupled radio-likelihood particle filter (not
+//! one of the papers; the default engine of the SDK and `fpbp demo`).
+//!
+//! Where `fpbp` weighs its particles by their distance to one BLE position
+//! x_B, `tcpf` weighs each particle by the likelihood of every heard RSSI at
+//! the particle's own position ([`crate::radio`]: path-loss model per
+//! transmitter, Student-t residuals, tempered by the number heard), so few
+//! or weak transmitters give a broad likelihood and PDR and the map carry
+//! the track. Two tasks, as in every engine here:
+//!
+//! - `Task::Ble` (every `tasks.gml_period_ms`): the readings of BLE beacons
+//!   and WiFi access points since the last run become one measurement set.
+//! - `Task::Fusion` (every `tasks.fusion_period_ms`): the PDR steps since the
+//!   last run move the particles (each with its own heading offset and step
+//!   scale); a move through a wall kills the particle (doors pass); the
+//!   pending measurement set weighs them; the phone's RSSI offset is updated
+//!   from the residuals ([`crate::radio::PhoneOffset`]); ESS resampling;
+//!   augmented-MCL re-seeding from the likelihood surface when the cloud has
+//!   lost the radio; the published point never jumps through a wall.
+//!
+//! Start: with an [`InitialPosition`] the particles start there; otherwise
+//! from the first measurement set, drawn over the walkable area of the most
+//! likely floor in proportion to the likelihood with the phone offset
+//! profiled per cell (a global start: the first pose comes with the first
+//! radio update, with an accuracy radius as wide as the cloud).
+
+pub mod config;
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+pub use config::TcpfConfig;
+
+use crate::Result;
+use crate::Vec2;
+use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, PoseSource, Task};
+use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
+use crate::floor::FloorTracker;
+use crate::fusion::ParticleFilter;
+use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
+use crate::map::FloorMap;
+use crate::pdr::Pdr;
+use crate::radio::likelihood::{log_likelihood, missing_log_likelihood, profiled};
+use crate::radio::model::PathLossParams;
+use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWindow, TxKind};
+use crate::site::Site;
+use crate::wifi::FreshResults;
+
+/// Sampling step of the wall checks, metres.
+const WALL_STEP_M: f64 = 0.1;
+
+/// Diagnostics of a `tcpf` run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct TcpfCounts {
+    /// Global starts (from a measurement set, including floor changes
+    /// onto a floor where the track's point is not walkable).
+    pub global_starts: u64,
+    /// Radio updates that weighed the particles.
+    pub radio_updates: u64,
+    /// Particles killed by a move through a wall.
+    pub wall_killed: u64,
+    /// Steps every particle tried to make through a wall (undone).
+    pub steps_blocked: u64,
+    /// Particles re-seeded from the likelihood surface.
+    pub reseeded: u64,
+    /// Fusion runs that held the published point instead of jumping
+    /// through a wall, and jumps made after the hold ran out.
+    pub held: u64,
+    pub jumps: u64,
+    pub floor_changes: u64,
+}
+
+/// One radio task's output: time, heard transmitters, and missed ones with
+/// their radio's sensitivity (dBm).
+type RadioSet = (i64, Vec<Measurement>, Vec<(usize, f64)>);
+
+/// The tightly coupled radio-likelihood particle filter.
+pub struct TcpfEngine {
+    site: Arc<Site>,
+    cfg: TcpfConfig,
+    model: Arc<dyn RadioModel>,
+    pdr: Pdr,
+    pf: ParticleFilter,
+    floors: FloorTracker,
+    window: ScanWindow,
+    fresh_wifi: FreshResults,
+    /// Measurement set of the last radio task (heard, and missed with
+    /// their radio's sensitivity), not yet used by fusion.
+    pending: Option<RadioSet>,
+    /// Last time each model transmitter was heard (cached WiFi results
+    /// included), ns; i64::MIN never.
+    last_heard: Vec<i64>,
+    /// Whether BLE readings / a WiFi scan arrived since the last radio task.
+    ble_active: bool,
+    wifi_active: bool,
+    offset: PhoneOffset,
+    monitor: LikelihoodMonitor,
+    floor: i32,
+    /// Consecutive radio votes for another floor (no barometer).
+    other_floor: Option<(i32, u32)>,
+    /// Start / re-seeding cells per floor (walkable, `cell_m` apart).
+    cells: BTreeMap<i32, Vec<Vec2>>,
+    before: Vec<Vec2>,
+    crossed: Vec<bool>,
+    log_l: Vec<f64>,
+    published: Option<Vec2>,
+    hold_runs: u32,
+    heading_rad: f64,
+    pose: Option<Pose>,
+    last_radio_t_ns: Option<i64>,
+    /// First radio update before the start, and how many floors have beacons.
+    first_radio_t_ns: Option<i64>,
+    beacon_floors: usize,
+    ble_period_ns: i64,
+    fusion_period_ns: i64,
+    stats: EngineStats,
+    pub counts: TcpfCounts,
+}
+
+/// The walkable cells of `map`, one per `cell_m` square that holds a grid
+/// point (the first grid point in it).
+fn cells_of(map: &FloorMap, cell_m: f64) -> Vec<Vec2> {
+    let mut seen = std::collections::BTreeSet::new();
+    let mut out = Vec::new();
+    for p in map.grid() {
+        let key = ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64);
+        if seen.insert(key) {
+            out.push(*p);
+        }
+    }
+    out
+}
+
+impl TcpfEngine {
+    /// The engine on `site` with the path-loss model of its beacons and
+    /// access points; `init` starts it at a known point.
+    pub fn new(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+    ) -> Result<Self> {
+        let l = &config.tcpf.likelihood;
+        let model = PathLossModel::for_site(
+            &site,
+            PathLossParams {
+                ble_sd_db: l.ble_sd_db,
+                wifi_sd_db: l.wifi_sd_db,
+                floor_loss_db: l.floor_loss_db,
+                other_floor_sd_db: l.other_floor_sd_db,
+                min_range_m: l.min_range_m,
+                phone_height_m: config.ble.phone_height_m,
+            },
+        );
+        Self::with_model(site, config, init, Arc::new(model))
+    }
+
+    /// The engine with any [`RadioModel`].
+    pub fn with_model(
+        site: Arc<Site>,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+        model: Arc<dyn RadioModel>,
+    ) -> Result<Self> {
+        config.validate()?;
+        let cfg = config.tcpf.clone();
+        let start_floor = init.map_or(site.default_floor(), |i| i.floor);
+        let cells = site
+            .spec
+            .floors
+            .iter()
+            .zip(&site.floors)
+            .map(|(f, m)| (f.id, cells_of(m, cfg.cell_m)))
+            .collect();
+        let mut e = TcpfEngine {
+            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pf: ParticleFilter::new(&cfg.filter(), config.seed),
+            floors: FloorTracker::for_site(&config.ekf.floor, &site, start_floor),
+            window: ScanWindow::default(),
+            fresh_wifi: FreshResults::default(),
+            pending: None,
+            last_heard: vec![i64::MIN; model.transmitters().len()],
+            ble_active: false,
+            wifi_active: false,
+            offset: PhoneOffset::new(&cfg.offset),
+            monitor: LikelihoodMonitor::default(),
+            floor: start_floor,
+            other_floor: None,
+            cells,
+            before: Vec::new(),
+            crossed: Vec::new(),
+            log_l: Vec::new(),
+            published: None,
+            hold_runs: 0,
+            heading_rad: 0.0,
+            pose: None,
+            last_radio_t_ns: None,
+            first_radio_t_ns: None,
+            beacon_floors: model
+                .transmitters()
+                .iter()
+                .filter(|t| t.kind == TxKind::Ble)
+                .map(|t| t.floor)
+                .collect::<std::collections::BTreeSet<_>>()
+                .len(),
+            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            stats: EngineStats::default(),
+            counts: TcpfCounts::default(),
+            model,
+            cfg,
+            site,
+        };
+        if let Some(at) = init {
+            e.start_at(at);
+        }
+        Ok(e)
+    }
+
+    /// The radio model the engine weighs with.
+    pub fn model(&self) -> &dyn RadioModel {
+        self.model.as_ref()
+    }
+
+    /// The phone RSSI offset estimate and its sd, dB.
+    pub fn rssi_offset_db(&self) -> (f64, f64) {
+        (self.offset.mean_db(), self.offset.sd_db())
+    }
+
+    /// Particle positions and weights (plots, tests).
+    pub fn particles(&self) -> (&[Vec2], &[f64]) {
+        (self.pf.particles(), self.pf.weights())
+    }
+
+    fn start_at(&mut self, at: InitialPosition) {
+        self.floor = at.floor;
+        self.floors.reset_to_floor(at.floor);
+        if let Some(h) = at.heading_rad {
+            self.heading_rad = h;
+        }
+        let site = Arc::clone(&self.site);
+        let map = site.floor(at.floor);
+        // a tap on a wall line starts at the nearest walkable point (5 m)
+        let p = Vec2::new(at.x_m, at.y_m);
+        let p = match map {
+            Some(m) if !m.is_walkable(p) => {
+                crate::engines::fpbp::nearest_walkable(m, p, 5.0).unwrap_or(p)
+            }
+            _ => p,
+        };
+        self.pf
+            .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
+        self.monitor.reset();
+        self.published = Some(p);
+        self.hold_runs = 0;
+    }
+
+    /// Likelihood surface of `meas` over the cells of `floor`, tempered:
+    /// (cells, weights exp(alpha l - max), log-sum-exp, weighted offset).
+    fn surface(
+        &self,
+        floor: i32,
+        meas: &[Measurement],
+        missing: &[(usize, f64)],
+    ) -> Option<(Vec<Vec2>, Vec<f64>, f64, f64)> {
+        let cells = self.cells.get(&floor)?;
+        if cells.is_empty() || meas.is_empty() {
+            return None;
+        }
+        let lc = &self.cfg.likelihood;
+        let alpha = lc.alpha(meas.len());
+        let (o0, sd0) = (self.offset.mean_db(), self.offset.sd_db());
+        let mut ll = Vec::with_capacity(cells.len());
+        let mut offs = Vec::with_capacity(cells.len());
+        for c in cells {
+            let (o, l) = profiled(self.model.as_ref(), lc, meas, floor, *c, o0, sd0);
+            let miss = missing_log_likelihood(self.model.as_ref(), lc, missing, floor, *c, o);
+            ll.push(alpha * (l + miss));
+            offs.push(o);
+        }
+        let max = ll.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() {
+            return None;
+        }
+        let w: Vec<f64> = ll.iter().map(|l| (l - max).exp()).collect();
+        let sum: f64 = w.iter().sum();
+        let o = w.iter().zip(&offs).map(|(w, o)| w * o).sum::<f64>() / sum;
+        Some((cells.clone(), w, max + sum.ln(), o))
+    }
+
+    /// The floor of the strongest beacons heard: the floor most of the
+    /// three strongest BLE beacons stand on (ties: the strongest's). WiFi
+    /// APs do not vote: their calibrated floors are the survey's floor,
+    /// and they carry through floors.
+    fn radio_floor_vote(&self, meas: &[Measurement]) -> Option<i32> {
+        let tx = self.model.transmitters();
+        let top: Vec<i32> = meas
+            .iter()
+            .filter_map(|m| tx.get(m.tx))
+            .filter(|t| t.kind == TxKind::Ble)
+            .take(3)
+            .map(|t| t.floor)
+            .collect();
+        let mut best: Option<(usize, i32)> = None;
+        for f in &top {
+            let n = top.iter().filter(|g| *g == f).count();
+            if best.is_none_or(|(c, _)| n > c) {
+                best = Some((n, *f));
+            }
+        }
+        best.map(|(_, f)| f)
+    }
+
+    /// Global start from `meas` on `floor` (or the most likely floor).
+    fn global_start(
+        &mut self,
+        t_ns: i64,
+        meas: &[Measurement],
+        missing: &[(usize, f64)],
+        floor: Option<i32>,
+    ) -> bool {
+        let floors: Vec<i32> = match floor {
+            Some(f) => vec![f],
+            None => self.site.spec.floors.iter().map(|f| f.id).collect(),
+        };
+        let best = floors
+            .into_iter()
+            .filter_map(|f| self.surface(f, meas, missing).map(|s| (f, s)))
+            .max_by(|a, b| a.1.2.total_cmp(&b.1.2).then(b.0.cmp(&a.0)));
+        let Some((f, (cells, w, _, o))) = best else {
+            return false;
+        };
+        self.floor = f;
+        self.floors.reset_to_floor(f);
+        self.other_floor = None;
+        let site = Arc::clone(&self.site);
+        let map = site.floor(f);
+        self.pf.init_from_cells(&cells, &w, self.cfg.cell_m, |q| {
+            map.is_none_or(|m| m.is_walkable(q))
+        });
+        self.offset.set(o, self.offset.sd_db());
+        self.monitor.reset();
+        self.published = None;
+        self.hold_runs = 0;
+        self.counts.global_starts += 1;
+        self.last_radio_t_ns = Some(t_ns);
+        true
+    }
+
+    /// One step of every particle, with the wall check.
+    fn step(&mut self, length_m: f64, yaw_rad: f64) {
+        let site = Arc::clone(&self.site);
+        let map = site.floor(self.floor);
+        if map.is_some() {
+            self.before.clear();
+            self.before.extend_from_slice(self.pf.particles());
+        }
+        self.pf.set_extra_noise(self.cfg.position_noise_m);
+        self.pf.predict(length_m, yaw_rad);
+        if let Some(m) = map {
+            m.crosses_wall_each(
+                &self.before,
+                self.pf.particles(),
+                WALL_STEP_M,
+                &mut self.crossed,
+            );
+            let n = self.crossed.iter().filter(|c| **c).count();
+            if n == self.crossed.len() {
+                // every hypothesis hit a wall (an unmapped door, a bad
+                // heading): the step is undone rather than the cloud lost
+                self.pf.restore_positions(&self.before);
+                self.counts.steps_blocked += 1;
+            } else if n > 0 {
+                self.pf.penalize_flagged(&self.crossed, 0.0);
+                self.counts.wall_killed += n as u64;
+            }
+        }
+        self.pf.resample_if_degenerate();
+    }
+
+    /// Weighs the particles with one measurement set, updates the phone
+    /// offset, the floor and, when the cloud has lost the radio, re-seeds.
+    fn radio_update(&mut self, t_ns: i64, meas: &[Measurement], missing: &[(usize, f64)]) {
+        let lc = self.cfg.likelihood.clone();
+        let model = Arc::clone(&self.model);
+        let floor = self.floor;
+        let o = self.offset.mean_db();
+        let alpha = lc.alpha(meas.len());
+        let m = meas.len().max(1) as f64;
+        let missed = self.near_missing(missing, o);
+        self.log_l.clear();
+        let mut mean_l = 0.0;
+        for p in self.pf.particles() {
+            let l = log_likelihood(model.as_ref(), &lc, meas, floor, *p, o);
+            let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
+            mean_l += (l / m).exp();
+            self.log_l.push(alpha * (l + miss));
+        }
+        mean_l /= self.pf.particles().len().max(1) as f64;
+        let log_l = std::mem::take(&mut self.log_l);
+        self.pf.weight_log(&log_l);
+        self.log_l = log_l;
+        self.counts.radio_updates += 1;
+        // residuals of each transmitter averaged over the weighted cloud
+        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let residuals: Vec<(f64, f64, f64)> = meas
+            .iter()
+            .filter_map(|mm| {
+                let (mut mu, mut sd, mut wsum) = (0.0, 0.0, 0.0);
+                for (p, w) in ps.iter().zip(ws) {
+                    let (a, b) = model.expected(mm.tx, floor, *p)?;
+                    mu += w * a;
+                    sd += w * b;
+                    wsum += w;
+                }
+                (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
+            })
+            .collect();
+        self.offset.observe(t_ns, &residuals);
+        self.pf.resample_if_degenerate();
+        let reseed = self.monitor.update(
+            mean_l,
+            self.cfg.recovery_alpha_slow,
+            self.cfg.recovery_alpha_fast,
+            self.cfg.recovery_max_fraction,
+        );
+        if reseed > 0.0
+            && let Some((cells, w, _, _)) = self.surface(floor, meas, missing)
+        {
+            self.pf.resample();
+            let site = Arc::clone(&self.site);
+            let map = site.floor(floor);
+            let n = self
+                .pf
+                .inject_from_cells(reseed, &cells, &w, self.cfg.cell_m, |q| {
+                    map.is_none_or(|m| m.is_walkable(q))
+                });
+            self.counts.reseeded += n as u64;
+        }
+        self.update_floor(t_ns, meas);
+    }
+
+    fn update_floor(&mut self, t_ns: i64, meas: &[Measurement]) {
+        if self.site.spec.floors.len() < 2 {
+            return;
+        }
+        let vote = self.radio_floor_vote(meas);
+        if let Some(v) = vote {
+            self.floors.on_ble_floor(t_ns, v);
+        }
+        let target = if self.floors.has_pressure() {
+            self.floors.floor()
+        } else {
+            match (vote, self.other_floor) {
+                (Some(v), _) if v == self.floor => {
+                    self.other_floor = None;
+                    None
+                }
+                (Some(v), Some((f, n))) if f == v => {
+                    self.other_floor = Some((v, n + 1));
+                    (n + 1 >= self.cfg.floor_switch_votes).then_some(v)
+                }
+                (Some(v), _) => {
+                    self.other_floor = Some((v, 1));
+                    (1 >= self.cfg.floor_switch_votes).then_some(v)
+                }
+                (None, _) => None,
+            }
+        };
+        let Some(f) = target.filter(|f| *f != self.floor && self.site.floor(*f).is_some()) else {
+            return;
+        };
+        self.counts.floor_changes += 1;
+        self.other_floor = None;
+        // floors share the x, y frame: the walker changes floor where the
+        // track is (stairs, lift); if that point is not walkable there,
+        // a global start on the new floor
+        let at = self.published.or_else(|| self.pf.mean());
+        let site = Arc::clone(&self.site);
+        match (at, site.floor(f)) {
+            (Some(p), Some(m)) if m.is_walkable(p) => {
+                self.floor = f;
+                self.pf.init_at(p, 3.0, |q| m.is_walkable(q));
+                self.monitor.reset();
+                self.published = Some(p);
+            }
+            _ => {
+                self.global_start(t_ns, meas, &[], Some(f));
+            }
+        }
+    }
+
+    /// The missed transmitters that could matter for the cloud: those
+    /// whose expected RSSI at the nearest point of the cloud's bounding box
+    /// reaches within 6 sensitivity scales of their radio's sensitivity.
+    fn near_missing(&self, missing: &[(usize, f64)], offset_db: f64) -> Vec<(usize, f64)> {
+        let ps = self.pf.particles();
+        if ps.is_empty() || missing.is_empty() {
+            return Vec::new();
+        }
+        let (mut lo, mut hi) = (ps[0], ps[0]);
+        for p in ps {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let tx = self.model.transmitters();
+        let scale = self.cfg.likelihood.sensitivity_scale_db;
+        missing
+            .iter()
+            .copied()
+            .filter(|&(i, sens)| {
+                let Some(t) = tx.get(i) else { return false };
+                let q = Vec2::new(t.pos.x.clamp(lo.x, hi.x), t.pos.y.clamp(lo.y, hi.y));
+                self.model
+                    .expected(i, self.floor, q)
+                    .is_some_and(|(mu, _)| mu + offset_db - sens > -6.0 * scale)
+            })
+            .collect()
+    }
+
+    /// The point to publish: the weighted mean, or the heaviest room's
+    /// mean, or the heaviest particles, whichever the last published point
+    /// reaches without crossing a wall; held up to `max_hold_runs`.
+    fn estimate(&mut self) -> Option<Vec2> {
+        let mean = self.pf.mean()?;
+        let site = Arc::clone(&self.site);
+        let Some(map) = site.floor(self.floor) else {
+            return Some(mean);
+        };
+        let Some(prev) = self.published else {
+            return Some(mean);
+        };
+        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let ok = |q: Vec2| map.is_walkable(q) && !map.crosses_wall(prev, q, WALL_STEP_M);
+        if ok(mean) {
+            self.hold_runs = 0;
+            return Some(mean);
+        }
+        if let Some(r) = dominant_room(ps, ws, |p| map.room_of(p))
+            && ok(r.mean)
+        {
+            self.hold_runs = 0;
+            return Some(r.mean);
+        }
+        let mut idx: Vec<usize> = (0..ps.len()).collect();
+        idx.sort_by(|a, b| ws[*b].total_cmp(&ws[*a]).then(a.cmp(b)));
+        if let Some(i) = idx.iter().take(32).find(|i| ok(ps[**i])) {
+            self.hold_runs = 0;
+            return Some(ps[*i]);
+        }
+        if self.hold_runs < self.cfg.max_hold_runs {
+            self.hold_runs += 1;
+            self.counts.held += 1;
+            return Some(prev);
+        }
+        self.hold_runs = 0;
+        self.counts.jumps += 1;
+        let r = dominant_room(ps, ws, |p| map.room_of(p)).map(|r| r.mean);
+        Some(r.filter(|q| map.is_walkable(*q)).unwrap_or(mean))
+    }
+
+    /// The `accuracy_quantile` of the weighted distances from `at`.
+    fn accuracy_m(&self, at: Vec2) -> f64 {
+        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let mut d: Vec<(f64, f64)> = ps
+            .iter()
+            .zip(ws)
+            .map(|(p, w)| ((p - at).norm(), *w))
+            .collect();
+        d.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let total: f64 = d.iter().map(|x| x.1).sum();
+        let mut acc = 0.0;
+        let mut r = d.last().map_or(0.0, |x| x.0);
+        for (dist, w) in &d {
+            acc += w;
+            if acc >= self.cfg.accuracy_quantile * total {
+                r = *dist;
+                break;
+            }
+        }
+        (r * self.cfg.accuracy_scale).max(self.cfg.accuracy_min_m)
+    }
+
+    fn publish(&mut self, t_ns: i64) {
+        let Some(pos) = self.estimate() else { return };
+        if let Some(prev) = self.published {
+            let d = pos - prev;
+            if d.norm() > 0.2 {
+                self.heading_rad = d.y.atan2(d.x);
+            }
+        }
+        self.published = Some(pos);
+        let max_age = 3 * self.ble_period_ns.max(1);
+        let source = match self.last_radio_t_ns {
+            Some(t) if t_ns - t <= max_age => PoseSource::Fused,
+            _ => PoseSource::DeadReckoning,
+        };
+        let floor_prob = if self.site.spec.floors.len() < 2 {
+            1.0
+        } else if self.other_floor.is_some() {
+            0.6
+        } else {
+            0.9
+        };
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: pos.x,
+            y_m: pos.y,
+            floor: self.floor,
+            heading_rad: self.heading_rad,
+            accuracy_m: self.accuracy_m(pos),
+            floor_prob,
+            source,
+        });
+    }
+
+    fn radio_task(&mut self, t_ns: i64) {
+        let (ble, wifi) = (self.ble_active, self.wifi_active);
+        self.ble_active = false;
+        self.wifi_active = false;
+        if self.window.is_empty() {
+            return;
+        }
+        let meas = self.window.take(self.cfg.likelihood.max_transmitters);
+        let lc = &self.cfg.likelihood;
+        let ble_quiet = (self.cfg.ble_miss_after_s * 1e9) as i64;
+        let wifi_quiet = (self.cfg.wifi_max_age_s * 1e9) as i64;
+        let missing = if lc.miss_weight > 0.0 {
+            self.model
+                .transmitters()
+                .iter()
+                .enumerate()
+                .filter_map(|(i, t)| {
+                    let (active, quiet, sens) = match t.kind {
+                        TxKind::Ble => (ble, ble_quiet, lc.ble_sensitivity_dbm),
+                        TxKind::Wifi => (wifi, wifi_quiet, lc.wifi_sensitivity_dbm),
+                    };
+                    let last = self.last_heard.get(i).copied().unwrap_or(i64::MIN);
+                    (active && t_ns.saturating_sub(last) > quiet).then_some((i, sens))
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        self.pending = Some((t_ns, meas, missing));
+    }
+
+    fn fusion_task(&mut self, t_ns: i64) {
+        let steps = self.pdr.take_steps();
+        let pending = self.pending.take();
+        if !self.pf.is_initialized() {
+            self.stats.no_fix += 1;
+            if let Some((_, meas, missing)) = pending
+                && meas.len() >= self.cfg.start_min_transmitters
+            {
+                // the strongest beacons' floor (BLE beacons are few per
+                // floor and floors attenuate them), else the floor with
+                // the most likelihood mass; the barometer gives floor
+                // changes, not the floor itself, until the start anchors it
+                let floor = self.radio_floor_vote(&meas);
+                let first = *self.first_radio_t_ns.get_or_insert(t_ns);
+                let wait_ns = (self.cfg.start_wait_ble_s * 1e9) as i64;
+                if floor.is_none() && self.beacon_floors > 1 && t_ns - first < wait_ns {
+                    // WiFi alone cannot tell the floors apart here (APs
+                    // carry through floors): wait a little for a beacon
+                    return;
+                }
+                if self.global_start(t_ns, &meas, &missing, floor) {
+                    self.publish(t_ns);
+                }
+            }
+            return;
+        }
+        for s in &steps {
+            if s.length_m.is_finite() && s.yaw_rad.is_finite() && s.length_m >= 0.0 {
+                self.stats.steps += 1;
+                self.step(s.length_m, s.yaw_rad);
+            }
+        }
+        if let Some((_, meas, missing)) = pending
+            && !meas.is_empty()
+        {
+            self.last_radio_t_ns = Some(t_ns);
+            self.radio_update(t_ns, &meas, &missing);
+        }
+        self.publish(t_ns);
+    }
+}
+
+impl Engine for TcpfEngine {
+    fn name(&self) -> &'static str {
+        "tcpf"
+    }
+
+    fn on_sensor(&mut self, event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+        if let SensorData::Pressure(p) = event.data
+            && p.is_finite()
+        {
+            self.floors.on_pressure(event.t_ns, p);
+        }
+        self.pdr.on_sensor(event);
+    }
+
+    fn on_ble(&mut self, obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+        if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
+            self.stats.rejected_inputs += 1;
+            return;
+        }
+        match self.model.lookup(TxKind::Ble, &obs.beacon_id) {
+            Some(tx) => {
+                self.ble_active = true;
+                if let Some(l) = self.last_heard.get_mut(tx) {
+                    *l = (*l).max(obs.t_ns);
+                }
+                if obs.rssi_dbm >= self.cfg.min_rssi_dbm {
+                    self.window.push(tx, obs.rssi_dbm);
+                }
+            }
+            None => self.stats.unknown_beacons += 1,
+        }
+    }
+
+    fn on_wifi(&mut self, scan: &WifiScan) {
+        self.stats.count_wifi(scan);
+        let max_age = (self.cfg.wifi_max_age_s * 1e9) as i64;
+        self.wifi_active = true;
+        for r in &scan.results {
+            if let Some(tx) = self.model.lookup(TxKind::Wifi, &r.bssid)
+                && let Some(l) = self.last_heard.get_mut(tx)
+            {
+                *l = (*l).max(r.seen_t_ns.min(scan.t_ns));
+            }
+        }
+        for r in self.fresh_wifi.of(scan, max_age) {
+            if !(r.rssi_dbm.is_finite() && r.rssi_dbm < 0.0) {
+                self.stats.rejected_inputs += 1;
+                continue;
+            }
+            if r.rssi_dbm < self.cfg.min_rssi_dbm {
+                continue;
+            }
+            if let Some(tx) = self.model.lookup(TxKind::Wifi, &r.bssid) {
+                self.window.push(tx, r.rssi_dbm);
+            }
+        }
+    }
+
+    fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
+        crate::engine::check_initial_position(&self.site, &at)?;
+        drop(self.pdr.take_steps());
+        self.start_at(at);
+        self.publish(t_ns);
+        Ok(())
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        match task {
+            Task::Ble => self.radio_task(t_ns),
+            Task::Fusion => self.fusion_task(t_ns),
+        }
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        Some(match task {
+            Task::Ble => self.ble_period_ns,
+            Task::Fusion => self.fusion_period_ns,
+        })
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        self.pose
+    }
+
+    fn stats(&self) -> EngineStats {
+        let mut s = self.stats.clone();
+        s.rssi_offset_db = Some(self.offset.mean_db());
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,351 @@
+//! How likely a set of heard RSSIs is at a position.
+//!
+//! Each heard transmitter k contributes a Student-t log density of its
+//! residual z_k = (r_k - o - mu_k(x)) / sd_k (r_k heard, o the phone's RSSI
+//! offset, mu_k and sd_k from the [`RadioModel`]): heavy tails, so one
+//! reflected or body-shadowed reading (NLOS: 10-20 dB off) costs a bounded
+//! amount instead of dragging the position. The sum is tempered by
+//! alpha(m) = tempering * (ref / m)^decay for m transmitters (capped at
+//! `max_transmitters`, the strongest): readings of one scan share the body,
+//! the phone and the walk's multipath, so they are far from independent,
+//! and a few transmitters must give a broad likelihood that leaves the
+//! filter to PDR and the map.
+
+use serde::{Deserialize, Serialize};
+
+use super::model::RadioModel;
+use crate::{Result, Vec2};
+
+/// One transmitter heard in a radio update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measurement {
+    /// Index in the [`RadioModel`].
+    pub tx: usize,
+    /// Mean RSSI of the readings in the update, dBm.
+    pub rssi_dbm: f64,
+    /// Readings averaged.
+    pub readings: u32,
+}
+
+/// Settings of the measurement model (docs/parameters.md "tcpf").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LikelihoodConfig {
+    /// Degrees of freedom of the Student-t residual (heavier tails below ~5).
+    pub student_nu: f64,
+    /// Spread of a BLE reading around the path-loss curve, dB.
+    pub ble_sd_db: f64,
+    /// Spread of a WiFi reading around the path-loss curve, dB.
+    pub wifi_sd_db: f64,
+    /// Extra loss per floor between phone and transmitter, dB.
+    pub floor_loss_db: f64,
+    /// Extra spread for a transmitter on another floor, dB.
+    pub other_floor_sd_db: f64,
+    /// Ranges are floored at this, metres.
+    pub min_range_m: f64,
+    /// alpha(m) = tempering * (tempering_ref / m)^tempering_decay.
+    pub tempering: f64,
+    pub tempering_ref: f64,
+    pub tempering_decay: f64,
+    /// At most this many transmitters (the strongest) per update.
+    pub max_transmitters: usize,
+    /// Non-detection: a transmitter of a radio that was scanning but was
+    /// not heard is evidence against positions where it should be strong.
+    /// P(detect) = logistic((mu + offset - sensitivity) / scale); a miss
+    /// contributes `miss_weight` * ln max(1 - P(detect), `miss_prob_min`).
+    pub ble_sensitivity_dbm: f64,
+    pub wifi_sensitivity_dbm: f64,
+    pub sensitivity_scale_db: f64,
+    pub miss_prob_min: f64,
+    pub miss_weight: f64,
+}
+
+impl Default for LikelihoodConfig {
+    fn default() -> Self {
+        LikelihoodConfig {
+            student_nu: 4.0,
+            ble_sd_db: 6.0,
+            wifi_sd_db: 6.0,
+            floor_loss_db: 15.0,
+            other_floor_sd_db: 4.0,
+            min_range_m: 0.5,
+            tempering: 1.0,
+            tempering_ref: 4.0,
+            tempering_decay: 0.5,
+            max_transmitters: 40,
+            ble_sensitivity_dbm: -92.0,
+            wifi_sensitivity_dbm: -88.0,
+            sensitivity_scale_db: 4.0,
+            miss_prob_min: 0.1,
+            miss_weight: 0.0,
+        }
+    }
+}
+
+impl LikelihoodConfig {
+    /// Checks every field's range; errors name `tcpf.likelihood.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        let pos = [
+            ("student_nu", self.student_nu),
+            ("ble_sd_db", self.ble_sd_db),
+            ("wifi_sd_db", self.wifi_sd_db),
+            ("min_range_m", self.min_range_m),
+            ("tempering", self.tempering),
+            ("tempering_ref", self.tempering_ref),
+        ];
+        for (f, v) in pos {
+            if !(v.is_finite() && v > 0.0 && v <= 1e4) {
+                return Err(crate::Error::config(
+                    format!("tcpf.likelihood.{f}"),
+                    format!("must be in (0, 1e4], got {v}"),
+                ));
+            }
+        }
+        for (f, v) in [
+            ("floor_loss_db", self.floor_loss_db),
+            ("other_floor_sd_db", self.other_floor_sd_db),
+            ("tempering_decay", self.tempering_decay),
+        ] {
+            if !(v.is_finite() && (0.0..=1e3).contains(&v)) {
+                return Err(crate::Error::config(
+                    format!("tcpf.likelihood.{f}"),
+                    format!("must be in [0, 1000], got {v}"),
+                ));
+            }
+        }
+        for (f, v, lo, hi) in [
+            ("ble_sensitivity_dbm", self.ble_sensitivity_dbm, -200.0, 0.0),
+            (
+                "wifi_sensitivity_dbm",
+                self.wifi_sensitivity_dbm,
+                -200.0,
+                0.0,
+            ),
+            (
+                "sensitivity_scale_db",
+                self.sensitivity_scale_db,
+                0.1,
+                100.0,
+            ),
+            ("miss_prob_min", self.miss_prob_min, 1e-6, 1.0),
+            ("miss_weight", self.miss_weight, 0.0, 100.0),
+        ] {
+            if !(v.is_finite() && (lo..=hi).contains(&v)) {
+                return Err(crate::Error::config(
+                    format!("tcpf.likelihood.{f}"),
+                    format!("must be in [{lo}, {hi}], got {v}"),
+                ));
+            }
+        }
+        if !(1..=256).contains(&self.max_transmitters) {
+            return Err(crate::Error::config(
+                "tcpf.likelihood.max_transmitters",
+                format!("must be in 1..=256, got {}", self.max_transmitters),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The tempering exponent for `m` transmitters.
+    pub fn alpha(&self, m: usize) -> f64 {
+        if m == 0 {
+            return 0.0;
+        }
+        self.tempering * (self.tempering_ref / m as f64).powf(self.tempering_decay)
+    }
+
+    /// Log Student-t density of a standardised residual, up to a constant.
+    #[inline]
+    pub fn log_t(&self, z: f64) -> f64 {
+        -0.5 * (self.student_nu + 1.0) * (z * z / self.student_nu).ln_1p()
+    }
+}
+
+/// Untempered log-likelihood of `meas` at `p` on `floor` with phone offset
+/// `offset_db`: the sum of [`LikelihoodConfig::log_t`] of the residuals
+/// (the -ln sd terms do not depend on the position for the path-loss model
+/// but do for a model whose spread varies, so they are included).
+pub fn log_likelihood(
+    model: &dyn RadioModel,
+    cfg: &LikelihoodConfig,
+    meas: &[Measurement],
+    floor: i32,
+    p: Vec2,
+    offset_db: f64,
+) -> f64 {
+    let mut s = 0.0;
+    for m in meas {
+        if let Some((mu, sd)) = model.expected(m.tx, floor, p) {
+            let z = (m.rssi_dbm - offset_db - mu) / sd;
+            s += cfg.log_t(z) - sd.ln();
+        }
+    }
+    s
+}
+
+/// Log-likelihood at `p` of not having heard the transmitters `missing`
+/// (indices in `model`, each with its radio's sensitivity) with phone
+/// offset `offset_db`, untempered: sum of `miss_weight` * ln P(miss).
+pub fn missing_log_likelihood(
+    model: &dyn RadioModel,
+    cfg: &LikelihoodConfig,
+    missing: &[(usize, f64)],
+    floor: i32,
+    p: Vec2,
+    offset_db: f64,
+) -> f64 {
+    if cfg.miss_weight == 0.0 {
+        return 0.0;
+    }
+    let inv = 1.0 / cfg.sensitivity_scale_db;
+    let mut s = 0.0;
+    for &(tx, sens) in missing {
+        if let Some((mu, _)) = model.expected(tx, floor, p) {
+            let z = (mu + offset_db - sens) * inv;
+            if z < -6.0 {
+                continue;
+            }
+            let p_det = 1.0 / (1.0 + (-z).exp());
+            s += (1.0 - p_det).max(cfg.miss_prob_min).ln();
+        }
+    }
+    cfg.miss_weight * s
+}
+
+/// The phone offset that best explains `meas` at `p` under a Gaussian
+/// prior N(`prior_db`, `prior_sd_db`^2) (least squares of the residuals
+/// weighted by 1/sd^2), and the untempered log-likelihood there. Used where
+/// no offset is known yet (the global start, re-seeding): each candidate
+/// position gets its own best offset.
+pub fn profiled(
+    model: &dyn RadioModel,
+    cfg: &LikelihoodConfig,
+    meas: &[Measurement],
+    floor: i32,
+    p: Vec2,
+    prior_db: f64,
+    prior_sd_db: f64,
+) -> (f64, f64) {
+    let ip = 1.0 / (prior_sd_db * prior_sd_db).max(1e-6);
+    let (mut num, mut den) = (prior_db * ip, ip);
+    for m in meas {
+        if let Some((mu, sd)) = model.expected(m.tx, floor, p) {
+            let w = 1.0 / (sd * sd);
+            num += (m.rssi_dbm - mu) * w;
+            den += w;
+        }
+    }
+    let o = num / den;
+    let z0 = (o - prior_db) / prior_sd_db.max(1e-3);
+    (
+        o,
+        log_likelihood(model, cfg, meas, floor, p, o) - 0.5 * z0 * z0,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ble::pathloss::PathLoss;
+    use crate::radio::model::{PathLossModel, PathLossParams};
+    use crate::site::testkit;
+
+    fn model() -> PathLossModel {
+        let pl = PathLoss {
+            rssi_1m_dbm: -60.0,
+            exponent: 2.0,
+        };
+        let bs = [(2.0, 2.0), (18.0, 2.0), (10.0, 18.0)];
+        let site = testkit::beacon_site("lik", vec![testkit::open_map(20, 20)], &bs, pl);
+        PathLossModel::for_site(
+            &site,
+            PathLossParams {
+                ble_sd_db: 6.0,
+                wifi_sd_db: 6.0,
+                floor_loss_db: 15.0,
+                other_floor_sd_db: 4.0,
+                min_range_m: 0.5,
+                phone_height_m: 1.2,
+            },
+        )
+    }
+
+    fn heard(m: &PathLossModel, at: Vec2, offset: f64) -> Vec<Measurement> {
+        (0..m.transmitters().len())
+            .map(|tx| Measurement {
+                tx,
+                rssi_dbm: m.expected(tx, 0, at).unwrap().0 + offset,
+                readings: 1,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn truth_is_most_likely_and_offset_is_profiled() {
+        let m = model();
+        let cfg = LikelihoodConfig::default();
+        let at = Vec2::new(6.0, 9.0);
+        let meas = heard(&m, at, -8.0);
+        let l_true = log_likelihood(&m, &cfg, &meas, 0, at, -8.0);
+        for q in [
+            Vec2::new(12.0, 9.0),
+            Vec2::new(6.0, 15.0),
+            Vec2::new(15.0, 3.0),
+        ] {
+            assert!(log_likelihood(&m, &cfg, &meas, 0, q, -8.0) < l_true);
+        }
+        let (o, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 100.0);
+        assert!((o + 8.0).abs() < 0.01, "{o}");
+        // a tight prior pulls it back towards 0
+        let (o2, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 1.0);
+        assert!(o2 > -8.0 && o2 < 0.0);
+    }
+
+    #[test]
+    fn a_missed_transmitter_counts_against_being_near_it() {
+        let m = model();
+        let cfg = LikelihoodConfig {
+            miss_weight: 1.0,
+            ..Default::default()
+        };
+        assert_eq!(LikelihoodConfig::default().miss_weight, 0.0);
+        let tx0 = m.transmitters()[0].pos;
+        let miss = [(0, cfg.ble_sensitivity_dbm)];
+        let near = missing_log_likelihood(&m, &cfg, &miss, 0, tx0, 0.0);
+        let far = missing_log_likelihood(&m, &cfg, &miss, 0, tx0 + Vec2::new(500.0, 0.0), 0.0);
+        assert!(near < far - 1.0, "{near} {far}");
+        assert!((near - cfg.miss_prob_min.ln()).abs() < 0.05, "{near}");
+        assert!(far > -0.01, "{far}");
+    }
+
+    #[test]
+    fn one_outlier_costs_a_bounded_amount() {
+        let m = model();
+        let cfg = LikelihoodConfig::default();
+        let at = Vec2::new(6.0, 9.0);
+        let mut meas = heard(&m, at, 0.0);
+        let base = log_likelihood(&m, &cfg, &meas, 0, at, 0.0);
+        meas[0].rssi_dbm -= 20.0;
+        let a = log_likelihood(&m, &cfg, &meas, 0, at, 0.0);
+        meas[0].rssi_dbm -= 20.0;
+        let b = log_likelihood(&m, &cfg, &meas, 0, at, 0.0);
+        // Gaussian: 20 -> 40 dB would cost 3x more; Student-t far less
+        assert!(
+            base - a > 0.0 && (base - b) < 2.0 * (base - a),
+            "{base} {a} {b}"
+        );
+        assert!(cfg.alpha(1) > cfg.alpha(16));
+        assert_eq!(cfg.alpha(0), 0.0);
+        assert!(LikelihoodConfig::default().validate().is_ok());
+        let bad = LikelihoodConfig {
+            student_nu: 0.0,
+            ..Default::default()
+        };
+        assert!(
+            bad.validate()
+                .unwrap_err()
+                .to_string()
+                .contains("student_nu")
+        );
+    }
+}

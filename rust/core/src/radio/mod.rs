@@ -1,0 +1,24 @@
+//! The radio measurement model shared by the tightly coupled engines: what
+//! RSSI a transmitter (BLE beacon or WiFi access point, one kind of
+//! [`Transmitter`] each) should give at a position, how likely a heard RSSI
+//! is there, the phone's RSSI offset, and the window that turns raw
+//! advertisements and scans into one measurement set per radio update.
+//!
+//! - [`model`]: the [`RadioModel`] trait and [`PathLossModel`], the fitted
+//!   log-distance model of every beacon and access point of the site
+//!   (`fpbp calibrate`, `calibrate --wifi`).
+//! - [`likelihood`]: heavy-tailed (Student-t) per-transmitter likelihood,
+//!   tempered by the number of transmitters heard, with the phone offset
+//!   profiled or given.
+//! - [`offset`]: the online phone RSSI offset (no per-model table, no truth).
+//! - [`window`]: per-transmitter readings since the last update.
+
+pub mod likelihood;
+pub mod model;
+pub mod offset;
+pub mod window;
+
+pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};
+pub use model::{PathLossModel, RadioModel, Transmitter, TxKind};
+pub use offset::PhoneOffset;
+pub use window::ScanWindow;

@@ -1,0 +1,219 @@
+//! What RSSI a transmitter should give at a position: the [`RadioModel`]
+//! trait and its path-loss implementation.
+
+use std::collections::BTreeMap;
+
+use crate::Vec2;
+use crate::ble::beacon_id::normalize_beacon_id;
+use crate::ble::pathloss::PathLoss;
+use crate::site::{BeaconSpec, Site};
+
+/// The two radios a transmitter can belong to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum TxKind {
+    Ble,
+    Wifi,
+}
+
+/// One transmitter the model knows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Transmitter {
+    /// Canonical id: a beacon id (`ibeacon:...`) or a lower-case BSSID.
+    pub id: String,
+    pub kind: TxKind,
+    pub floor: i32,
+    /// Position in the MCS, metres.
+    pub pos: Vec2,
+    /// Mounting height minus phone height, metres.
+    pub dz_m: f64,
+    pub model: PathLoss,
+}
+
+/// Expected RSSI of a transmitter at a position and the spread around it.
+pub trait RadioModel: Send + Sync {
+    /// Every transmitter, indexed as [`RadioModel::lookup`] returns.
+    fn transmitters(&self) -> &[Transmitter];
+    /// Index of the transmitter with id `id` of kind `kind` (any spelling
+    /// of a beacon id; BSSIDs lower-case).
+    fn lookup(&self, kind: TxKind, id: &str) -> Option<usize>;
+    /// (mean dBm, standard deviation dB) of transmitter `tx` for a phone at
+    /// `p` on floor `floor`; `None` for an unknown index.
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)>;
+}
+
+/// Settings of [`PathLossModel`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PathLossParams {
+    /// Spread of a BLE reading around the path-loss curve, dB.
+    pub ble_sd_db: f64,
+    /// Spread of a WiFi reading around the path-loss curve, dB.
+    pub wifi_sd_db: f64,
+    /// Extra loss per floor between phone and transmitter, dB.
+    pub floor_loss_db: f64,
+    /// Extra spread for a transmitter on another floor, dB.
+    pub other_floor_sd_db: f64,
+    /// Ranges are floored at this, metres.
+    pub min_range_m: f64,
+    /// Height of the phone above the floor, metres.
+    pub phone_height_m: f64,
+}
+
+/// The log-distance model of every beacon and access point of a site.
+#[derive(Debug, Clone)]
+pub struct PathLossModel {
+    tx: Vec<Transmitter>,
+    by_id: BTreeMap<(TxKind, String), usize>,
+    /// Floor index (position in the site's floor list) by floor id: floors
+    /// apart are counted by list position.
+    floor_rank: BTreeMap<i32, i32>,
+    params: PathLossParams,
+}
+
+impl PathLossModel {
+    /// The model of `site`'s beacons and access points. Entries with an
+    /// unparsable id, non-finite values or a non-positive exponent are left
+    /// out (site validation reports them first).
+    pub fn for_site(site: &Site, params: PathLossParams) -> Self {
+        let mut m = PathLossModel {
+            tx: Vec::new(),
+            by_id: BTreeMap::new(),
+            floor_rank: site
+                .spec
+                .floors
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (f.id, i as i32))
+                .collect(),
+            params,
+        };
+        for b in &site.spec.beacons {
+            if let Ok(id) = normalize_beacon_id(&b.id) {
+                m.push(TxKind::Ble, id, b);
+            }
+        }
+        for a in &site.spec.access_points {
+            m.push(TxKind::Wifi, a.id.to_ascii_lowercase(), a);
+        }
+        m
+    }
+
+    fn push(&mut self, kind: TxKind, id: String, b: &BeaconSpec) {
+        let ok = [b.x_m, b.y_m, b.z_m, b.rssi_1m_dbm, b.path_loss_exponent]
+            .iter()
+            .all(|v| v.is_finite())
+            && b.path_loss_exponent > 0.0;
+        if !ok || self.by_id.contains_key(&(kind, id.clone())) {
+            return;
+        }
+        self.by_id.insert((kind, id.clone()), self.tx.len());
+        self.tx.push(Transmitter {
+            id,
+            kind,
+            floor: b.floor,
+            pos: Vec2::new(b.x_m, b.y_m),
+            dz_m: b.z_m - self.params.phone_height_m,
+            model: PathLoss {
+                rssi_1m_dbm: b.rssi_1m_dbm,
+                exponent: b.path_loss_exponent,
+            },
+        });
+    }
+
+    /// How many floors lie between floor ids `a` and `b` (by the site's
+    /// floor order; 1 for an unknown floor).
+    pub fn floors_apart(&self, a: i32, b: i32) -> i32 {
+        match (self.floor_rank.get(&a), self.floor_rank.get(&b)) {
+            (Some(x), Some(y)) => (x - y).abs(),
+            _ => i32::from(a != b),
+        }
+    }
+
+    /// The model's settings.
+    pub fn params(&self) -> &PathLossParams {
+        &self.params
+    }
+}
+
+impl RadioModel for PathLossModel {
+    fn transmitters(&self) -> &[Transmitter] {
+        &self.tx
+    }
+
+    fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
+        if let Some(i) = self.by_id.get(&(kind, id.to_string())) {
+            return Some(*i);
+        }
+        let canon = match kind {
+            TxKind::Ble => normalize_beacon_id(id).ok()?,
+            TxKind::Wifi => id.to_ascii_lowercase(),
+        };
+        self.by_id.get(&(kind, canon)).copied()
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let t = self.tx.get(tx)?;
+        let pr = &self.params;
+        let d2 = (p - t.pos).norm_squared() + t.dz_m * t.dz_m;
+        let d = d2.sqrt().max(pr.min_range_m);
+        let mut mean = t.model.rssi_1m_dbm - 10.0 * t.model.exponent * d.log10();
+        let mut sd = match t.kind {
+            TxKind::Ble => pr.ble_sd_db,
+            TxKind::Wifi => pr.wifi_sd_db,
+        };
+        let apart = self.floors_apart(floor, t.floor);
+        if apart > 0 {
+            mean -= pr.floor_loss_db * f64::from(apart);
+            sd = (sd * sd + pr.other_floor_sd_db * pr.other_floor_sd_db).sqrt();
+        }
+        Some((mean, sd))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::site::testkit;
+
+    fn params() -> PathLossParams {
+        PathLossParams {
+            ble_sd_db: 6.0,
+            wifi_sd_db: 7.0,
+            floor_loss_db: 15.0,
+            other_floor_sd_db: 4.0,
+            min_range_m: 0.5,
+            phone_height_m: 1.2,
+        }
+    }
+
+    #[test]
+    fn expected_rssi_falls_with_range_and_floors() {
+        let model = PathLoss {
+            rssi_1m_dbm: -60.0,
+            exponent: 2.0,
+        };
+        let maps = vec![testkit::open_map(20, 20), testkit::open_map(20, 20)];
+        let site = testkit::beacon_site("radio", maps, &[(5.0, 5.0)], model);
+        let m = PathLossModel::for_site(&site, params());
+        assert!(!m.transmitters().is_empty());
+        let i = 0;
+        let t = m.transmitters()[i].clone();
+        let near = m.expected(i, t.floor, t.pos).unwrap();
+        let far = m
+            .expected(i, t.floor, t.pos + Vec2::new(10.0, 0.0))
+            .unwrap();
+        assert!(near.0 > far.0 + 10.0, "{near:?} {far:?}");
+        let other = site
+            .spec
+            .floors
+            .iter()
+            .find(|f| f.id != t.floor)
+            .unwrap()
+            .id;
+        let up = m.expected(i, other, t.pos + Vec2::new(10.0, 0.0)).unwrap();
+        assert!((far.0 - up.0 - 15.0).abs() < 1e-9);
+        assert!(up.1 > far.1);
+        assert_eq!(m.lookup(TxKind::Ble, &t.id), Some(i));
+        assert_eq!(m.lookup(TxKind::Wifi, &t.id), None);
+        assert!(m.expected(m.transmitters().len(), 0, t.pos).is_none());
+    }
+}

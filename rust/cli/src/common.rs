@@ -237,6 +237,9 @@ pub struct ErrorStats {
     /// horizontal error + 15 m x |estimated floor - true floor| (floor ids as
     /// levels; a truth point without a floor adds nothing), metres.
     pub ipin_score_m: Option<f64>,
+    /// Share of the points with a pose whose error is within the pose's
+    /// `accuracy_m` (an honest 68 % radius gives about 0.68).
+    pub within_accuracy: Option<f64>,
 }
 
 /// Penalty per floor of difference in the IPIN competition metric, metres.
@@ -258,11 +261,13 @@ impl ErrorStats {
         let mut errors = Vec::new();
         let mut ipin = Vec::new();
         let (mut points, mut no_fix, mut floors, mut floors_ok) = (0, 0, 0usize, 0usize);
+        let mut within = 0usize;
         for p in pts {
             points += 1;
             match p.error_m() {
                 Some(e) if e.is_finite() => {
                     errors.push(e);
+                    within += p.estimate.is_some_and(|est| e <= est.accuracy_m) as usize;
                     ipin.extend(ipin_error_m(p));
                 }
                 _ => no_fix += 1,
@@ -287,6 +292,7 @@ impl ErrorStats {
             max_m: errors.last().copied(),
             floor_accuracy: (floors > 0).then(|| floors_ok as f64 / floors as f64),
             ipin_score_m: percentile(&ipin, 75.0),
+            within_accuracy: (!errors.is_empty()).then(|| within as f64 / errors.len() as f64),
         }
     }
 }

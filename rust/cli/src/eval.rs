@@ -217,7 +217,7 @@ fn print_seed_table(ss: &[crate::report::SeedSummary], seeds: &[u64]) {
         seeds.len()
     );
     println!(
-        "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6}",
+        "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6} {:>7}",
         "engine",
         "logs",
         "points",
@@ -227,7 +227,8 @@ fn print_seed_table(ss: &[crate::report::SeedSummary], seeds: &[u64]) {
         "p80_m",
         "ipin_m",
         "jumps/100m",
-        "start"
+        "start",
+        "in_acc"
     );
     for s in ss {
         let cov = match (s.coverage.mean, s.coverage.sd) {
@@ -235,7 +236,7 @@ fn print_seed_table(ss: &[crate::report::SeedSummary], seeds: &[u64]) {
             (m, _) => fmt_pct(m),
         };
         println!(
-            "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6}",
+            "{:<12} {:>5} {:>6} {:>11} {:>9} {:>11} {:>11} {:>11} {:>11} {:>6} {:>7}",
             s.engine,
             s.logs,
             s.points,
@@ -245,7 +246,8 @@ fn print_seed_table(ss: &[crate::report::SeedSummary], seeds: &[u64]) {
             pm(&s.p80_m, 2),
             pm(&s.ipin_score_m, 2),
             pm(&s.jumps_per_100m, 2),
-            s.start.name()
+            s.start.name(),
+            fmt_pct(s.within_accuracy.mean)
         );
     }
 }

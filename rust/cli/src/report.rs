@@ -414,6 +414,7 @@ pub struct SeedSummary {
     pub p80_m: OverSeeds,
     pub coverage: OverSeeds,
     pub ipin_score_m: OverSeeds,
+    pub within_accuracy: OverSeeds,
     pub jumps_per_100m: OverSeeds,
     pub wall_crossings_per_100m: OverSeeds,
 }
@@ -435,6 +436,7 @@ impl SeedSummary {
             p80_m: f(&|m| m.errors.p80_m),
             coverage: f(&|m| m.errors.coverage),
             ipin_score_m: f(&|m| m.errors.ipin_score_m),
+            within_accuracy: f(&|m| m.errors.within_accuracy),
             jumps_per_100m: f(&|m| m.track.jumps_per_100m),
             wall_crossings_per_100m: f(&|m| m.track.wall_crossings_per_100m),
         }

@@ -41,6 +41,20 @@ pub struct TcpfConfig {
     pub recovery_alpha_slow: f64,
     pub recovery_alpha_fast: f64,
     pub recovery_max_fraction: f64,
+    /// ... and only when the likelihood surface's best cell beats the
+    /// cloud's mean likelihood by more than this (tempered log units).
+    pub recovery_margin: f64,
+    /// ... and only while the moving share of particles killed by walls
+    /// per step is at least this (the map says the cloud is lost; the
+    /// radio alone is too biased on real sites to say so).
+    pub recovery_min_wall_kill: f64,
+    /// ... or, whatever the walls say, when the surface beats the cloud
+    /// by more than this (a kidnapped walker whose steps fit the map where
+    /// the cloud is).
+    pub recovery_radio_alone_margin: f64,
+    /// The radio-alone test runs every this many radio updates (it
+    /// evaluates the whole surface).
+    pub recovery_check_every: u32,
     /// Without a barometer, a floor change needs this many consecutive
     /// radio updates voting for the other floor.
     pub floor_switch_votes: u32,
@@ -53,6 +67,13 @@ pub struct TcpfConfig {
     pub accuracy_quantile: f64,
     pub accuracy_scale: f64,
     pub accuracy_min_m: f64,
+    /// Converged cloud, weaker radio: the tempered log-likelihood is
+    /// scaled by c + (1 - c) g, g = clamp((spread - lo) / (hi - lo), 0, 1)
+    /// of the cloud's RMS spread before the update (c =
+    /// `converged_radio_scale`; 1 = no adaptation).
+    pub converged_radio_scale: f64,
+    pub converged_spread_lo_m: f64,
+    pub converged_spread_hi_m: f64,
     /// Only WiFi results at most this old (vs their scan) are used, s; an
     /// AP not heard for this long while WiFi scans counts as missed.
     pub wifi_max_age_s: f64,
@@ -82,11 +103,18 @@ impl Default for TcpfConfig {
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.5,
             recovery_max_fraction: 0.2,
+            recovery_margin: 0.0,
+            recovery_min_wall_kill: 0.3,
+            recovery_radio_alone_margin: 20.0,
+            recovery_check_every: 5,
             floor_switch_votes: 3,
             max_hold_runs: 5,
             accuracy_quantile: 0.68,
-            accuracy_scale: 1.0,
-            accuracy_min_m: 1.0,
+            accuracy_scale: 2.5,
+            accuracy_min_m: 3.0,
+            converged_radio_scale: 1.0,
+            converged_spread_lo_m: 3.0,
+            converged_spread_hi_m: 8.0,
             wifi_max_age_s: 4.0,
             ble_miss_after_s: 3.0,
             min_rssi_dbm: -100.0,
@@ -129,6 +157,19 @@ impl TcpfConfig {
                 0.0,
                 1.0,
             ),
+            ("recovery_margin", self.recovery_margin, 0.0, 1e6),
+            (
+                "recovery_min_wall_kill",
+                self.recovery_min_wall_kill,
+                0.0,
+                1.0,
+            ),
+            (
+                "recovery_radio_alone_margin",
+                self.recovery_radio_alone_margin,
+                0.0,
+                1e6,
+            ),
             ("cell_m", self.cell_m, 0.25, 50.0),
             ("start_wait_ble_s", self.start_wait_ble_s, 0.0, 600.0),
             ("recovery_alpha_slow", self.recovery_alpha_slow, 0.0, 1.0),
@@ -142,6 +183,24 @@ impl TcpfConfig {
             ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
             ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
+            (
+                "converged_radio_scale",
+                self.converged_radio_scale,
+                0.0,
+                10.0,
+            ),
+            (
+                "converged_spread_lo_m",
+                self.converged_spread_lo_m,
+                0.0,
+                1000.0,
+            ),
+            (
+                "converged_spread_hi_m",
+                self.converged_spread_hi_m,
+                0.0,
+                1000.0,
+            ),
             ("wifi_max_age_s", self.wifi_max_age_s, 0.0, 600.0),
             ("ble_miss_after_s", self.ble_miss_after_s, 0.0, 600.0),
             ("min_rssi_dbm", self.min_rssi_dbm, -200.0, 0.0),
@@ -153,6 +212,12 @@ impl TcpfConfig {
                 ));
             }
         }
+        if self.converged_spread_lo_m >= self.converged_spread_hi_m {
+            return Err(crate::Error::config(
+                "tcpf.converged_spread_lo_m",
+                "must be below converged_spread_hi_m",
+            ));
+        }
         if self.recovery_alpha_slow > self.recovery_alpha_fast {
             return Err(crate::Error::config(
                 "tcpf.recovery_alpha_slow",
@@ -163,6 +228,12 @@ impl TcpfConfig {
             return Err(crate::Error::config(
                 "tcpf.start_min_transmitters",
                 "must be in 1..=64",
+            ));
+        }
+        if !(1..=1000).contains(&self.recovery_check_every) {
+            return Err(crate::Error::config(
+                "tcpf.recovery_check_every",
+                "must be in 1..=1000",
             ));
         }
         if self.floor_switch_votes > 1000 || self.max_hold_runs > 1000 {

@@ -105,6 +105,11 @@ pub struct TcpfEngine {
     log_l: Vec<f64>,
     published: Option<Vec2>,
     hold_runs: u32,
+    /// Radio updates since the last radio-alone recovery check.
+    radio_updates_since_check: u32,
+    /// Moving average (rate 0.1 per step) of the share of particles a step
+    /// kills at walls: a cloud whose steps keep hitting walls is lost.
+    kill_ema: f64,
     heading_rad: f64,
     pose: Option<Pose>,
     last_radio_t_ns: Option<i64>,
@@ -191,6 +196,8 @@ impl TcpfEngine {
             log_l: Vec::new(),
             published: None,
             hold_runs: 0,
+            radio_updates_since_check: 0,
+            kill_ema: 0.0,
             heading_rad: 0.0,
             pose: None,
             last_radio_t_ns: None,
@@ -364,6 +371,8 @@ impl TcpfEngine {
                 &mut self.crossed,
             );
             let n = self.crossed.iter().filter(|c| **c).count();
+            let frac = n as f64 / self.crossed.len().max(1) as f64;
+            self.kill_ema += 0.1 * (frac - self.kill_ema);
             if n == self.crossed.len() {
                 // every hypothesis hit a wall (an unmapped door, a bad
                 // heading): the step is undone rather than the cloud lost
@@ -384,17 +393,35 @@ impl TcpfEngine {
         let model = Arc::clone(&self.model);
         let floor = self.floor;
         let o = self.offset.mean_db();
-        let alpha = lc.alpha(meas.len());
+        let c = self.cfg.converged_radio_scale;
+        let (lo, hi) = (
+            self.cfg.converged_spread_lo_m,
+            self.cfg.converged_spread_hi_m,
+        );
+        let g = ((self.pf.spread_m() - lo) / (hi - lo)).clamp(0.0, 1.0);
+        let alpha = lc.alpha(meas.len()) * (c + (1.0 - c) * g);
         let m = meas.len().max(1) as f64;
         let missed = self.near_missing(missing, o);
+        let alpha0 = lc.alpha(meas.len());
         self.log_l.clear();
         let mut mean_l = 0.0;
+        // log of the cloud's mean tempered likelihood (alpha0: comparable
+        // with the surface), by log-sum-exp
+        let (mut lmax, mut raw) = (
+            f64::NEG_INFINITY,
+            Vec::with_capacity(self.pf.particles().len()),
+        );
         for p in self.pf.particles() {
             let l = log_likelihood(model.as_ref(), &lc, meas, floor, *p, o);
             let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
             mean_l += (l / m).exp();
             self.log_l.push(alpha * (l + miss));
+            let r = alpha0 * (l + miss);
+            lmax = lmax.max(r);
+            raw.push(r);
         }
+        let cloud_ll = lmax
+            + (raw.iter().map(|r| (r - lmax).exp()).sum::<f64>() / raw.len().max(1) as f64).ln();
         mean_l /= self.pf.particles().len().max(1) as f64;
         let log_l = std::mem::take(&mut self.log_l);
         self.pf.weight_log(&log_l);
@@ -423,9 +450,31 @@ impl TcpfEngine {
             self.cfg.recovery_alpha_fast,
             self.cfg.recovery_max_fraction,
         );
-        if reseed > 0.0
-            && let Some((cells, w, _, _)) = self.surface(floor, meas, missing)
+        // re-seed only when the surface's best cell beats the cloud by
+        // `recovery_margin` (tempered log-likelihood) and the walls say the
+        // cloud is lost (a biased radio model has better-fitting spots away
+        // from the walker: re-seeding there on every dip of the likelihood
+        // loses a good track), or when the surface beats the cloud by far
+        // (checked every `recovery_check_every` updates even without a dip:
+        // a kidnapped cloud's likelihood is low from the start, not falling)
+        self.radio_updates_since_check += 1;
+        let check = self.radio_updates_since_check >= self.cfg.recovery_check_every;
+        if check {
+            self.radio_updates_since_check = 0;
+        }
+        if (reseed > 0.0 || check)
+            && let Some((cells, w, lse, _)) = self.surface(floor, meas, missing)
+            && let gap = lse - w.iter().sum::<f64>().ln() - cloud_ll
+            && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
+                Some(self.cfg.recovery_max_fraction)
+            } else {
+                (reseed > 0.0
+                    && gap > self.cfg.recovery_margin
+                    && self.kill_ema >= self.cfg.recovery_min_wall_kill)
+                    .then_some(reseed)
+            }
         {
+            let reseed = fraction;
             self.pf.resample();
             let site = Arc::clone(&self.site);
             let map = site.floor(floor);
@@ -526,10 +575,20 @@ impl TcpfEngine {
         let Some(map) = site.floor(self.floor) else {
             return Some(mean);
         };
-        let Some(prev) = self.published else {
-            return Some(mean);
-        };
         let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let Some(prev) = self.published else {
+            // the first point: the mean of a cloud spread over two wings
+            // can lie in the void between them
+            if map.is_walkable(mean) {
+                return Some(mean);
+            }
+            let room = dominant_room(ps, ws, |p| map.room_of(p)).map(|r| r.mean);
+            if let Some(r) = room.filter(|r| map.is_walkable(*r)) {
+                return Some(r);
+            }
+            let best = (0..ps.len()).max_by(|a, b| ws[*a].total_cmp(&ws[*b]).then(b.cmp(a)));
+            return best.map(|i| ps[i]).or(Some(mean));
+        };
         let ok = |q: Vec2| map.is_walkable(q) && !map.crosses_wall(prev, q, WALL_STEP_M);
         if ok(mean) {
             self.hold_runs = 0;

@@ -97,6 +97,25 @@ impl PathLossModel {
         m
     }
 
+    /// A model of the given transmitters on a one-floor site (benches,
+    /// tests, models built elsewhere). Later duplicates of an id are dropped.
+    pub fn from_transmitters(tx: Vec<Transmitter>, params: PathLossParams) -> Self {
+        let mut m = PathLossModel {
+            tx: Vec::new(),
+            by_id: BTreeMap::new(),
+            floor_rank: BTreeMap::new(),
+            params,
+        };
+        for t in tx {
+            if m.by_id.contains_key(&(t.kind, t.id.clone())) {
+                continue;
+            }
+            m.by_id.insert((t.kind, t.id.clone()), m.tx.len());
+            m.tx.push(t);
+        }
+        m
+    }
+
     fn push(&mut self, kind: TxKind, id: String, b: &BeaconSpec) {
         let ok = [b.x_m, b.y_m, b.z_m, b.rssi_1m_dbm, b.path_loss_exponent]
             .iter()

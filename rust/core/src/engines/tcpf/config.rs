@@ -65,6 +65,10 @@ pub struct TcpfConfig {
     /// from the published point, times `accuracy_scale`, at least
     /// `accuracy_min_m`.
     pub accuracy_quantile: f64,
+    /// The published point is the weighted mean of the particles around
+    /// the heaviest 3 x 3 block of `mode_bin_m` squares (the cloud's main
+    /// mode); 0 = the weighted mean of all particles.
+    pub mode_bin_m: f64,
     pub accuracy_scale: f64,
     pub accuracy_min_m: f64,
     /// Converged cloud, weaker radio: the tempered log-likelihood is
@@ -110,6 +114,7 @@ impl Default for TcpfConfig {
             floor_switch_votes: 3,
             max_hold_runs: 5,
             accuracy_quantile: 0.68,
+            mode_bin_m: 0.0,
             accuracy_scale: 2.5,
             accuracy_min_m: 3.0,
             converged_radio_scale: 1.0,
@@ -181,6 +186,7 @@ impl TcpfConfig {
                 1.0,
             ),
             ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
+            ("mode_bin_m", self.mode_bin_m, 0.0, 100.0),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
             ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
             (

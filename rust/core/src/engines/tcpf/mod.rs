@@ -570,7 +570,11 @@ impl TcpfEngine {
     /// mean, or the heaviest particles, whichever the last published point
     /// reaches without crossing a wall; held up to `max_hold_runs`.
     fn estimate(&mut self) -> Option<Vec2> {
-        let mean = self.pf.mean()?;
+        let mean = if self.cfg.mode_bin_m > 0.0 {
+            self.mode_mean(self.cfg.mode_bin_m)?
+        } else {
+            self.pf.mean()?
+        };
         let site = Arc::clone(&self.site);
         let Some(map) = site.floor(self.floor) else {
             return Some(mean);
@@ -615,6 +619,42 @@ impl TcpfEngine {
         self.counts.jumps += 1;
         let r = dominant_room(ps, ws, |p| map.room_of(p)).map(|r| r.mean);
         Some(r.filter(|q| map.is_walkable(*q)).unwrap_or(mean))
+    }
+
+    /// The weighted mean of the particles within one bin of the heaviest
+    /// `bin_m` square: the cloud's main mode (the mean of a cloud split
+    /// over two places lies between them).
+    fn mode_mean(&self, bin_m: f64) -> Option<Vec2> {
+        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        if ps.is_empty() {
+            return None;
+        }
+        let key = |p: &Vec2| ((p.x / bin_m).floor() as i64, (p.y / bin_m).floor() as i64);
+        let mut bins: BTreeMap<(i64, i64), f64> = BTreeMap::new();
+        for (p, w) in ps.iter().zip(ws) {
+            *bins.entry(key(p)).or_insert(0.0) += w;
+        }
+        // mass of each bin with its 8 neighbours
+        let best = bins
+            .keys()
+            .map(|&(i, j)| {
+                let m: f64 = (-1..=1)
+                    .flat_map(|di| (-1..=1).map(move |dj| (i + di, j + dj)))
+                    .filter_map(|k| bins.get(&k))
+                    .sum();
+                (m, (i, j))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))?
+            .1;
+        let (mut s, mut wsum) = (Vec2::zeros(), 0.0);
+        for (p, w) in ps.iter().zip(ws) {
+            let (i, j) = key(p);
+            if (i - best.0).abs() <= 1 && (j - best.1).abs() <= 1 {
+                s += p * *w;
+                wsum += w;
+            }
+        }
+        (wsum > 0.0).then(|| s / wsum)
     }
 
     /// The `accuracy_quantile` of the weighted distances from `at`.

@@ -28,7 +28,8 @@ pub struct Args {
     /// Log files (native, ILC or IPIN; gzip or plain).
     #[arg(long, num_args = 1.., required = true)]
     pub logs: Vec<PathBuf>,
-    /// Engine names, comma-separated: fpbp, bp, pdr, gml, trilat, frbw, ml,
+    /// Engine names, comma-separated: tcpf (the default engine), fpbp, bp,
+    /// pdr, gml, trilat, frbw, ml,
     /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md,
     /// "Engines").
     #[arg(long, value_delimiter = ',', required = true)]

@@ -18,7 +18,8 @@ pub struct Args {
     /// Log file (native v1, ILC trace or IPIN logfile; gzip or plain).
     #[arg(long)]
     pub log: PathBuf,
-    /// Engine name: fpbp, bp, pdr, gml, trilat, frbw, ml, wcentroid, prox-pf,
+    /// Engine name: tcpf (the default engine), fpbp, bp, pdr, gml, trilat,
+    /// frbw, ml, wcentroid, prox-pf,
     /// ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md, "Engines").
     #[arg(long)]
     pub engine: String,

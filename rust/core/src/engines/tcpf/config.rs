@@ -52,8 +52,9 @@ pub struct TcpfConfig {
     /// by more than this (a kidnapped walker whose steps fit the map where
     /// the cloud is).
     pub recovery_radio_alone_margin: f64,
-    /// The radio-alone test runs every this many radio updates (it
-    /// evaluates the whole surface).
+    /// The radio-alone test also runs every this many radio updates
+    /// without a likelihood dip (0 = only after a dip; each run evaluates
+    /// the whole surface).
     pub recovery_check_every: u32,
     /// Without a barometer, a floor change needs this many consecutive
     /// radio updates voting for the other floor.
@@ -110,7 +111,7 @@ impl Default for TcpfConfig {
             recovery_margin: 0.0,
             recovery_min_wall_kill: 0.3,
             recovery_radio_alone_margin: 20.0,
-            recovery_check_every: 5,
+            recovery_check_every: 0,
             floor_switch_votes: 3,
             max_hold_runs: 5,
             accuracy_quantile: 0.68,
@@ -236,10 +237,10 @@ impl TcpfConfig {
                 "must be in 1..=64",
             ));
         }
-        if !(1..=1000).contains(&self.recovery_check_every) {
+        if self.recovery_check_every > 1000 {
             return Err(crate::Error::config(
                 "tcpf.recovery_check_every",
-                "must be in 1..=1000",
+                "must be in 0..=1000",
             ));
         }
         if self.floor_switch_votes > 1000 || self.max_hold_runs > 1000 {

@@ -458,7 +458,8 @@ impl TcpfEngine {
         // (checked every `recovery_check_every` updates even without a dip:
         // a kidnapped cloud's likelihood is low from the start, not falling)
         self.radio_updates_since_check += 1;
-        let check = self.radio_updates_since_check >= self.cfg.recovery_check_every;
+        let every = self.cfg.recovery_check_every;
+        let check = every > 0 && self.radio_updates_since_check >= every;
         if check {
             self.radio_updates_since_check = 0;
         }

@@ -14,13 +14,15 @@
 //! - [`window`]: per-transmitter readings since the last update.
 //! - [`radio_map`]: [`RadioMap`], a radio map learned from survey walks
 //!   (per-transmitter kernel-smoothed mean and spread on a grid, path-loss
-//!   or prior fallback far from the walks), from [`survey`] samples; its
-//!   JSON file `fpbp-radio-map` in [`radio_map_file`].
+//!   or prior fallback far from the walks), built by [`radio_map_build`]
+//!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
+//!   [`radio_map_file`].
 
 pub mod likelihood;
 pub mod model;
 pub mod offset;
 pub mod radio_map;
+pub mod radio_map_build;
 pub mod radio_map_file;
 pub mod survey;
 pub mod window;

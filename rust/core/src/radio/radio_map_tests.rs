@@ -6,7 +6,7 @@ use std::sync::Arc;
 use super::*;
 use crate::engine::replay::replay;
 use crate::engine::{EngineConfig, EngineData, build_engine_with};
-use crate::events::{BleObservation, TruthPoint};
+use crate::events::{BleObservation, LogEvent, TruthPoint};
 use crate::site::testkit::{beacon_site, open_map};
 
 /// A transmitter's hidden field: RSSI at `p`, or `None` when not heard.

@@ -62,6 +62,16 @@ pub struct Args {
     /// Write every AP transmitter's report (accepted and rejected) as JSON here.
     #[arg(long)]
     pub wifi_report: Option<PathBuf>,
+    /// Also learn a radio map (`fpbp-radio-map`, docs/formats.md) from the
+    /// same logs and write it here; the written site is its fallback.
+    #[arg(long)]
+    pub radio_map: Option<PathBuf>,
+    /// Radio map settings JSON (`RadioMapConfig`, docs/parameters.md).
+    #[arg(long, requires = "radio_map")]
+    pub radio_map_config: Option<PathBuf>,
+    /// Write every surveyed transmitter's radio-map report as JSON here.
+    #[arg(long, requires = "radio_map")]
+    pub radio_map_report: Option<PathBuf>,
 }
 
 fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
@@ -74,7 +84,7 @@ fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
     }
 }
 
-fn load_events(path: &Path, opts: &ReadOptions) -> Result<Vec<LogEvent>> {
+pub(crate) fn load_events(path: &Path, opts: &ReadOptions) -> Result<Vec<LogEvent>> {
     let (events, report) =
         read_all(path, opts).with_context(|| format!("reading {}", path.display()))?;
     if report.malformed_skipped > 0 {
@@ -301,6 +311,17 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(r) = &args.report {
         std::fs::write(r, serde_json::to_string_pretty(&reports)?)
             .with_context(|| format!("writing {}", r.display()))?;
+    }
+    if let Some(rm) = &args.radio_map {
+        let site = crate::site_io::load_site(&args.out)?;
+        crate::radio_map::build(
+            &site,
+            &logs,
+            &opts,
+            args.radio_map_config.as_deref(),
+            rm,
+            args.radio_map_report.as_deref(),
+        )?;
     }
     if !args.check_logs.is_empty() {
         check(&args, &out, &cfg)?;

@@ -63,6 +63,9 @@ pub struct Args {
     /// Fingerprint database for `robust-ekf` (`fpbp fingerprint build`); default: the site's model database.
     #[arg(long)]
     pub fingerprints: Option<PathBuf>,
+    /// Radio map for `tcpf` (`fpbp calibrate --radio-map`); default: the site's path-loss models.
+    #[arg(long)]
+    pub radio_map: Option<PathBuf>,
     /// Radios whose events the engines get (the others' are dropped before replay).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "ble,wifi")]
     pub radios: Vec<crate::radios::Radio>,
@@ -85,12 +88,16 @@ pub fn select_logs(logs: &[PathBuf], split: Split) -> Vec<PathBuf> {
 
 pub fn run(args: Args) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
-    let data = crate::fingerprint::engine_data(
+    let site = common::load_site(&args.site)?;
+    let mut data = crate::fingerprint::engine_data(
         args.fingerprints.as_deref(),
         &args.engine,
-        &common::load_site(&args.site)?,
+        &site,
         &common::load_config(args.config.as_deref(), args.seed)?,
     )?;
+    if let Some(p) = &args.radio_map {
+        data.radio_map = Some(crate::radio_map::load(p, &site)?);
+    }
     let build = move |name: &str,
                       site: std::sync::Arc<fpbp_core::site::Site>,
                       cfg: &fpbp_core::engine::EngineConfig,
@@ -535,6 +542,7 @@ mod tests {
             floor: None,
             strict: false,
             fingerprints: None,
+            radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
         };
         // walk-east has no start without --init truth: it positions nothing,
@@ -671,6 +679,7 @@ mod tests {
             floor: None,
             strict: true,
             fingerprints: None,
+            radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
         };
         let ms = run_with(&args, &common::core_builder, false).unwrap();

@@ -163,7 +163,10 @@ pub fn engine_data(
         )),
         None => None,
     };
-    Ok(EngineData { fingerprints })
+    Ok(EngineData {
+        fingerprints,
+        ..EngineData::default()
+    })
 }
 
 #[cfg(test)]

@@ -43,10 +43,32 @@ pub struct Args {
     /// Fail on the first malformed log line instead of skipping it.
     #[arg(long)]
     pub strict: bool,
+    /// Radio map for `tcpf` (`fpbp calibrate --radio-map`); default: the site's path-loss models.
+    #[arg(long)]
+    pub radio_map: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
-    let (m, empty) = run_inner(&args, &common::core_builder)?;
+    let data = fpbp_core::engine::EngineData {
+        radio_map: match &args.radio_map {
+            Some(p) => Some(crate::radio_map::load(
+                p,
+                common::load_site(&args.site)?.as_ref(),
+            )?),
+            None => None,
+        },
+        ..Default::default()
+    };
+    let build = move |name: &str,
+                      site: std::sync::Arc<fpbp_core::site::Site>,
+                      cfg: &fpbp_core::engine::EngineConfig,
+                      init: Option<fpbp_core::engine::InitialPosition>|
+          -> anyhow::Result<Box<dyn fpbp_core::engine::Engine>> {
+        Ok(fpbp_core::engine::build_engine_with(
+            name, site, cfg, init, &data,
+        )?)
+    };
+    let (m, empty) = run_inner(&args, &build)?;
     let e = &m.errors;
     println!(
         "{} ({} start): {} truth points, {} without a pose (coverage {}), mean {} m, p50 {} m, p80 {} m, \
@@ -178,6 +200,7 @@ mod tests {
             seed: Some(3),
             floor: None,
             strict: true,
+            radio_map: None,
         };
         let m = run_with(&args, &builder).unwrap();
         assert_eq!(m.errors.points, 5);

@@ -41,6 +41,13 @@ pub const MAX_ITERATIONS: usize = 10_000;
 pub const MAX_AP_WORK: f64 = 2e10;
 /// Most points of one floor's fingerprint database (AP keeps n x n matrices).
 pub const MAX_FINGERPRINT_POINTS: usize = 5_000;
+/// Most transmitters of a radio map (a large survey hears a few thousand
+/// BSSIDs; the builder drops readings of any beyond this).
+pub const MAX_RADIO_MAP_TRANSMITTERS: usize = 20_000;
+/// Most cells of one radio-map grid (2 i16 per cell).
+pub const MAX_RADIO_MAP_GRID_CELLS: usize = 1 << 20;
+/// Most cells of all grids of a radio map together (4 bytes each: 256 MB).
+pub const MAX_RADIO_MAP_CELLS: usize = 1 << 26;
 /// Most particles / random candidates of a filter.
 pub const MAX_PARTICLES: usize = 1_000_000;
 /// Largest plan file read from disk, bytes (callers that read plans check it).

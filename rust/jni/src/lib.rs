@@ -144,8 +144,9 @@ fn write_pose(
 
 /// `start(siteJson, siteDir, configJson, engine, init: DoubleArray?,
 /// fingerprintsJson: String?) -> handle`. `init` is `[x_m, y_m, floor,
-/// heading_rad]` (heading NaN = unknown) or null; `fingerprintsJson` an
-/// `fpbp-fingerprints` database for `robust-ekf` or null.
+/// heading_rad]` (heading NaN = unknown) or null; `fingerprintsJson` engine
+/// data or null, told apart by its `format`: an `fpbp-fingerprints` database
+/// for `robust-ekf` or an `fpbp-radio-map` for `tcpf`.
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
     mut env: EnvUnowned<'l>,

@@ -9,7 +9,6 @@ use fpbp_core::engine::{
     Engine, EngineConfig, EngineData, EngineStats, InitialPosition, Pose, Task, build_engine_with,
 };
 use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent, WifiResult, WifiScan};
-use fpbp_core::fingerprint::FingerprintSet;
 use fpbp_core::site::GeoRef;
 
 use crate::error::BridgeError;
@@ -126,9 +125,11 @@ pub fn init_from_array(v: &[f64]) -> Result<InitialPosition, BridgeError> {
 
 impl Session {
     /// Loads the site, parses the config (empty text = defaults) and builds
-    /// `engine`. `fingerprints_json` is an optional `fpbp-fingerprints` file
-    /// (docs/fingerprints.md, e.g. from `fpbp fingerprint build`) for
-    /// `robust-ekf`; the other engines ignore it.
+    /// `engine`. `fingerprints_json` is optional engine data, told apart by
+    /// its `format` ([`EngineData::from_json`]): an `fpbp-fingerprints` file
+    /// (docs/fingerprints.md, `fpbp fingerprint build`) for `robust-ekf`, or
+    /// an `fpbp-radio-map` (docs/formats.md, `fpbp calibrate --radio-map`)
+    /// for `tcpf`; the other engines ignore it.
     pub fn start(
         site_json: &str,
         site_dir: &Path,
@@ -151,15 +152,10 @@ impl Session {
             EngineConfig::from_json(config_json)?
         };
         let site = site_loader::load_site(site_json, site_dir)?;
-        let fingerprints = match fingerprints_json.filter(|t| !t.trim().is_empty()) {
-            Some(text) => Some(Arc::new(FingerprintSet::from_json(
-                text,
-                &site,
-                &config.ble,
-            )?)),
-            None => None,
+        let data = match fingerprints_json.filter(|t| !t.trim().is_empty()) {
+            Some(text) => EngineData::from_json(text, &site, &config.ble)?,
+            None => EngineData::default(),
         };
-        let data = EngineData { fingerprints };
         let frame = MapFrame {
             georef: site.spec.georef,
             map_from_enu_rad: site.spec.map_from_enu_rad,
@@ -730,6 +726,36 @@ mod tests {
             }
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("started with a bad config"),
+        }
+    }
+
+    /// `start`'s data JSON is told apart by its `format`: a radio map goes
+    /// to `tcpf`, and its errors name the field.
+    #[test]
+    fn start_takes_a_radio_map_in_the_data_json() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+        let site = std::fs::read_to_string(dir.join("site.json")).expect("demo site");
+        let map = r#"{"format": "fpbp-radio-map", "version": 1, "transmitters": [
+            {"id": "ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:1", "kind": "ble",
+             "floor": 0, "x_m": 3.5, "y_m": 3.5,
+             "grids": [{"floor": 0, "x0_m": 0.0, "y0_m": 0.0, "cell_m": 2.0, "nx": 2, "ny": 1,
+                        "mean_dbm_x10": [-600, -650], "sd_dbm_x10": [40, 45]}]}]}"#;
+        let s = Session::start(&site, &dir, "", "tcpf", None, Some(map));
+        assert!(s.is_ok(), "{:?}", s.err().map(|e| e.to_string()));
+        let bad = map.replace("\"nx\": 2", "\"nx\": 3");
+        match Session::start(&site, &dir, "", "tcpf", None, Some(&bad)) {
+            Err(BridgeError::IllegalArgument(m)) => {
+                assert!(m.contains("transmitters[0].grids[0].mean_dbm_x10"), "{m}")
+            }
+            Err(e) => panic!("unexpected error {e}"),
+            Ok(_) => panic!("started with a bad radio map"),
+        }
+        // a fingerprint file still goes to the fingerprint parser
+        let fp = r#"{"format": "fpbp-fingerprints", "version": 9}"#;
+        match Session::start(&site, &dir, "", "robust-ekf", None, Some(fp)) {
+            Err(BridgeError::IllegalArgument(m)) => assert!(m.contains("fingerprint"), "{m}"),
+            Err(e) => panic!("unexpected error {e}"),
+            Ok(_) => panic!("started with a bad fingerprint file"),
         }
     }
 }

@@ -126,7 +126,7 @@ struct Bin {
 }
 
 /// Position on a path at `t_ns` by linear interpolation of the truth (sorted).
-fn interpolate(truth: &[TruthPoint], t_ns: i64, max_gap_ns: i64) -> Option<(Vec2, i32)> {
+pub(crate) fn interpolate(truth: &[TruthPoint], t_ns: i64, max_gap_ns: i64) -> Option<(Vec2, i32)> {
     let i = truth.partition_point(|p| p.t_ns <= t_ns);
     if i == 0 {
         return None;

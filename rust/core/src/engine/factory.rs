@@ -33,6 +33,38 @@ pub struct EngineData {
     /// [`crate::fingerprint::FingerprintSet::from_json`]); without them it
     /// builds model databases from the site.
     pub fingerprints: Option<Arc<crate::fingerprint::FingerprintSet>>,
+    /// A radio map learned from survey walks for `tcpf`
+    /// ([`crate::radio::RadioMap::from_json`]); without it `tcpf` weighs
+    /// with the site's path-loss models.
+    pub radio_map: Option<Arc<crate::radio::RadioMap>>,
+}
+
+impl EngineData {
+    /// The data in one JSON document, told apart by its `format` field: an
+    /// `fpbp-radio-map` ([`crate::radio::RadioMap::from_json`], for `tcpf`)
+    /// or an `fpbp-fingerprints` database (anything else, including text
+    /// that does not parse: its errors are the fingerprint parser's). Both
+    /// are resolved against `site`; errors name the field.
+    pub fn from_json(text: &str, site: &Site, ble: &crate::ble::BleConfig) -> Result<Self> {
+        #[derive(serde::Deserialize)]
+        struct Head {
+            #[serde(default)]
+            format: String,
+        }
+        let head = serde_json::from_str::<Head>(text).ok().map(|h| h.format);
+        if head.as_deref() == Some(crate::radio::radio_map_file::FORMAT) {
+            return Ok(EngineData {
+                radio_map: Some(Arc::new(crate::radio::RadioMap::from_json(text, site)?)),
+                ..EngineData::default()
+            });
+        }
+        Ok(EngineData {
+            fingerprints: Some(Arc::new(crate::fingerprint::FingerprintSet::from_json(
+                text, site, ble,
+            )?)),
+            ..EngineData::default()
+        })
+    }
 }
 
 /// Checks a start position against `site`: finite coordinates on a floor the
@@ -116,9 +148,10 @@ pub fn build_engine_with(
             name == "fpbp",
             init,
         )?)),
-        "tcpf" => Ok(Box::new(crate::engines::tcpf::TcpfEngine::new(
-            site, config, init,
-        )?)),
+        "tcpf" => Ok(Box::new(match &data.radio_map {
+            Some(m) => crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?,
+            None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
+        })),
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
             site, config, init,
         )?)),

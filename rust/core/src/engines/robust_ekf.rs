@@ -541,6 +541,7 @@ mod tests {
         // every survey point lies on y = 12.5: fixes from this DB can only be on that line
         let data = EngineData {
             fingerprints: Some(set),
+            ..EngineData::default()
         };
         let mut e = build_engine_with("robust-ekf", site.clone(), &cfg, None, &data).unwrap();
         let (ev, truth) = st::straight_walk(1.0, 20.0);
@@ -560,6 +561,7 @@ mod tests {
                 source: crate::fingerprint::store::Source::Survey,
                 floors: Default::default(),
             })),
+            ..EngineData::default()
         };
         let mut e = build_engine_with("robust-ekf", site, &cfg, None, &empty).unwrap();
         replay(e.as_mut(), st::straight_walk(1.0, 5.0).0);

@@ -12,13 +12,23 @@
 //!   profiled or given.
 //! - [`offset`]: the online phone RSSI offset (no per-model table, no truth).
 //! - [`window`]: per-transmitter readings since the last update.
+//! - [`radio_map`]: [`RadioMap`], a radio map learned from survey walks
+//!   (per-transmitter kernel-smoothed mean and spread on a grid, path-loss
+//!   or prior fallback far from the walks), built by [`radio_map_build`]
+//!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
+//!   [`radio_map_file`].
 
 pub mod likelihood;
 pub mod model;
 pub mod offset;
+pub mod radio_map;
+pub mod radio_map_build;
+pub mod radio_map_file;
+pub mod survey;
 pub mod window;
 
 pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};
 pub use model::{PathLossModel, RadioModel, Transmitter, TxKind};
 pub use offset::PhoneOffset;
+pub use radio_map::{RadioMap, RadioMapBuilder, RadioMapConfig};
 pub use window::ScanWindow;

@@ -32,9 +32,11 @@ class FpbpEngine private constructor(
         /**
          * Starts engine [engine] on the site described by [siteJson], whose plan
          * paths are relative to [siteDir]. [configJson] is an engine config
-         * (empty = defaults). [fingerprintsJson] is a walked-survey fingerprint
-         * database for `robust-ekf` (`fpbp fingerprint build`; null = the engine
-         * builds one from the path-loss model). Throws [IllegalArgumentException]
+         * (empty = defaults). [fingerprintsJson] is survey data told apart by
+         * its `format`: a walked-survey fingerprint database for `robust-ekf`
+         * (`fpbp fingerprint build`; null = the engine builds one from the
+         * path-loss model), or a radio map for `tcpf` (`fpbp calibrate
+         * --radio-map`; null = the site's path-loss models). Throws [IllegalArgumentException]
          * naming the bad field, file or name.
          */
         @JvmStatic

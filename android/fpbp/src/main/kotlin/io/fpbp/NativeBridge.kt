@@ -53,8 +53,10 @@ object NativeBridge {
      * Loads the site (site.json text; plan paths relative to [siteDir]),
      * parses [configJson] (empty = defaults) and starts [engine].
      * [init] is `[x_m, y_m, floor, heading_rad]` (heading NaN = unknown) or null.
-     * [fingerprintsJson] is an `fpbp-fingerprints` database (docs/fingerprints.md)
-     * for `robust-ekf`, or null.
+     * [fingerprintsJson] is engine data told apart by its `format` field: an
+     * `fpbp-fingerprints` database (docs/fingerprints.md) for `robust-ekf`, or
+     * an `fpbp-radio-map` (docs/formats.md, `fpbp calibrate --radio-map`) for
+     * `tcpf`; or null.
      */
     @JvmStatic external fun start(
         siteJson: String,

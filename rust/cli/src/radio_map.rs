@@ -1,0 +1,93 @@
+//! `fpbp calibrate --radio-map`: the radio map learned from the survey logs
+//! (`fpbp_core::radio::radio_map`), and loading a map file for `eval` and
+//! `replay --radio-map`. File glue only.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
+use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
+use fpbp_core::radio::{RadioMap, RadioModel};
+use fpbp_core::site::Site;
+use fpbp_logs::ReadOptions;
+
+/// Builds the map of `logs` on `site` (its beacons and APs are the
+/// fallback), writes it to `out` (and the per-transmitter report to
+/// `report`), prints a summary.
+pub fn build(
+    site: &Site,
+    logs: &[PathBuf],
+    opts: &ReadOptions,
+    config: Option<&Path>,
+    out: &Path,
+    report: Option<&Path>,
+) -> Result<()> {
+    let cfg = match config {
+        None => RadioMapConfig::default(),
+        Some(p) => {
+            let text =
+                std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            serde_json::from_str(&text)
+                .with_context(|| format!("{}: radio map config", p.display()))?
+        }
+    };
+    let mut b = RadioMapBuilder::new(site, &cfg)?;
+    let bar = crate::progress::bar(logs.len() as u64);
+    for l in logs {
+        bar.set_message(format!("radio map: reading {}", l.display()));
+        bar.inc(1);
+        let events = crate::calibrate::load_events(l, opts)?;
+        b.add_log(&events);
+    }
+    bar.finish_and_clear();
+    let (map, reports, s) = b.finish()?;
+    let mut why: std::collections::BTreeMap<String, usize> = Default::default();
+    for r in reports.iter().filter_map(|r| r.rejected.as_deref()) {
+        let key = if r.contains("min_samples") {
+            "too few readings"
+        } else if r.contains("min_walks") {
+            "heard on too few walks"
+        } else if r.contains("moving") {
+            "moving or carried"
+        } else {
+            r
+        };
+        *why.entry(key.to_string()).or_default() += 1;
+    }
+    println!(
+        "radio map: {} logs, {} readings ({} placed, {} without truth, {} invalid, {} dropped); \
+         {} transmitters surveyed, {} kept with grids ({} cells), {} from the site only",
+        s.logs,
+        s.readings,
+        s.placed,
+        s.without_truth,
+        s.invalid,
+        s.dropped,
+        s.surveyed,
+        s.kept,
+        s.cells,
+        s.site_only
+    );
+    for (k, n) in &why {
+        println!("  left out: {n} x {k}");
+    }
+    std::fs::write(out, map.to_json()?).with_context(|| format!("writing {}", out.display()))?;
+    println!(
+        "wrote {} ({} transmitters)",
+        out.display(),
+        map.transmitters().len()
+    );
+    if let Some(r) = report {
+        std::fs::write(r, serde_json::to_string_pretty(&reports)?)
+            .with_context(|| format!("writing {}", r.display()))?;
+    }
+    Ok(())
+}
+
+/// Reads and resolves a radio map file against `site`; errors name the file.
+pub fn load(path: &Path, site: &Site) -> Result<Arc<RadioMap>> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    let map = RadioMap::from_json(&text, site).with_context(|| format!("{}", path.display()))?;
+    Ok(Arc::new(map))
+}

@@ -1,0 +1,290 @@
+//! A radio map learned from survey walks: per transmitter and floor, a grid
+//! of the kernel-smoothed mean RSSI and its spread, implementing
+//! [`RadioModel`] (model (b) of the tcpf issue; docs/tcpf.md, "Radio map").
+//! Built by [`RadioMapBuilder`] ([`super::radio_map_build`]); its file form
+//! is in [`super::radio_map_file`].
+//!
+//! Query ([`RadioModel::expected`]): bilinear between cell centres on the
+//! phone's floor; where the grid has no value (outside it, far from the
+//! walks, another floor never walked) the transmitter's fallback: the
+//! site's path-loss model when the site had one (same formula as
+//! [`super::PathLossModel`], wider `fallback` spreads), else a constant
+//! weak prior (`prior_dbm`, `prior_sd_db`).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::model::{RadioModel, Transmitter, TxKind};
+pub use super::radio_map_build::{
+    BuildSummary, RadioMapBuilder, RadioMapConfig, TxReport, kind_name,
+};
+use crate::Vec2;
+use crate::ble::beacon_id::normalize_beacon_id;
+use crate::site::Site;
+use crate::{Error, Result};
+
+/// Value of a grid cell with no estimate (the fallback applies), in the
+/// x10 dB integer arrays.
+pub const NO_VALUE: i16 = i16::MIN;
+
+/// How the map answers where its grids do not.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct FallbackParams {
+    /// Spread around a site path-loss model, BLE / WiFi, dB. Default 8
+    /// (wider than tcpf's 6: the map is used where it is better).
+    pub ble_sd_db: f64,
+    pub wifi_sd_db: f64,
+    /// Extra loss per floor between phone and transmitter, dB. Default 15.
+    pub floor_loss_db: f64,
+    /// Extra spread on another floor, dB. Default 4.
+    pub other_floor_sd_db: f64,
+    /// Path-loss ranges are floored at this, metres. Default 0.5.
+    pub min_range_m: f64,
+    /// Mean and spread of a transmitter without a path-loss model away
+    /// from its grids, dBm / dB. Defaults -92 / 10.
+    pub prior_dbm: f64,
+    pub prior_sd_db: f64,
+}
+
+impl Default for FallbackParams {
+    fn default() -> Self {
+        FallbackParams {
+            ble_sd_db: 8.0,
+            wifi_sd_db: 8.0,
+            floor_loss_db: 15.0,
+            other_floor_sd_db: 4.0,
+            min_range_m: 0.5,
+            prior_dbm: -92.0,
+            prior_sd_db: 10.0,
+        }
+    }
+}
+
+impl FallbackParams {
+    /// Checks every field, naming the bad one under `prefix`.
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        use crate::bounds::check_range;
+        for (f, v, lo, hi) in [
+            ("ble_sd_db", self.ble_sd_db, 0.1, 50.0),
+            ("wifi_sd_db", self.wifi_sd_db, 0.1, 50.0),
+            ("floor_loss_db", self.floor_loss_db, 0.0, 100.0),
+            ("other_floor_sd_db", self.other_floor_sd_db, 0.0, 50.0),
+            ("min_range_m", self.min_range_m, 0.01, 100.0),
+            ("prior_dbm", self.prior_dbm, -200.0, 0.0),
+            ("prior_sd_db", self.prior_sd_db, 0.1, 50.0),
+        ] {
+            check_range(&format!("{prefix}.{f}"), v, lo, hi)?;
+        }
+        Ok(())
+    }
+}
+/// One grid of a transmitter on one floor: `nx` x `ny` cells of `cell_m`
+/// from (`x0_m`, `y0_m`) (row-major, x fastest), values in 0.1 dB,
+/// [`NO_VALUE`] where the fallback applies.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid {
+    pub floor: i32,
+    pub x0_m: f64,
+    pub y0_m: f64,
+    pub cell_m: f64,
+    pub nx: usize,
+    pub ny: usize,
+    pub mean_dbm_x10: Vec<i16>,
+    pub sd_dbm_x10: Vec<i16>,
+}
+
+impl Grid {
+    fn at(&self, i: usize, j: usize) -> Option<(f64, f64)> {
+        let k = j.checked_mul(self.nx)?.checked_add(i)?;
+        let m = *self.mean_dbm_x10.get(k)?;
+        let s = *self.sd_dbm_x10.get(k)?;
+        (m != NO_VALUE && s != NO_VALUE).then(|| (f64::from(m) / 10.0, f64::from(s) / 10.0))
+    }
+
+    /// (mean, sd) at `p`: bilinear between the four cell centres around
+    /// it, the nearest cell's value where one of them has none, `None`
+    /// outside the grid or where the nearest cell has no value.
+    pub fn sample(&self, p: Vec2) -> Option<(f64, f64)> {
+        let u = (p.x - self.x0_m) / self.cell_m;
+        let v = (p.y - self.y0_m) / self.cell_m;
+        if !(u >= 0.0 && v >= 0.0 && u < self.nx as f64 && v < self.ny as f64) {
+            return None;
+        }
+        let nearest = self.at(u as usize, v as usize)?;
+        let (fu, fv) = (u - 0.5, v - 0.5);
+        let (i0, j0) = (fu.floor().max(0.0) as usize, fv.floor().max(0.0) as usize);
+        let (i1, j1) = ((i0 + 1).min(self.nx - 1), (j0 + 1).min(self.ny - 1));
+        let (tx, ty) = (
+            (fu - i0 as f64).clamp(0.0, 1.0),
+            (fv - j0 as f64).clamp(0.0, 1.0),
+        );
+        let corners = [
+            self.at(i0, j0),
+            self.at(i1, j0),
+            self.at(i0, j1),
+            self.at(i1, j1),
+        ];
+        let [Some(a), Some(b), Some(c), Some(d)] = corners else {
+            return Some(nearest);
+        };
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let mean = lerp(lerp(a.0, b.0, tx), lerp(c.0, d.0, tx), ty);
+        let sd = lerp(lerp(a.1, b.1, tx), lerp(c.1, d.1, tx), ty);
+        Some((mean, sd))
+    }
+}
+
+/// What the map knows of one transmitter besides its [`Transmitter`] entry.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MapEntry {
+    /// Whether the site had a path-loss model for it (else the prior).
+    pub has_pathloss: bool,
+    /// Readings and walks it was learned from (0 for site-only entries).
+    pub samples: usize,
+    pub walks: usize,
+    /// Its grids, at most one per floor.
+    pub grids: Vec<Grid>,
+}
+
+/// The learned radio map of a site.
+#[derive(Debug, Clone)]
+pub struct RadioMap {
+    pub(crate) site_name: String,
+    pub(crate) tx: Vec<Transmitter>,
+    pub(crate) entries: Vec<MapEntry>,
+    pub(crate) by_id: BTreeMap<(TxKind, String), usize>,
+    pub(crate) floor_rank: BTreeMap<i32, i32>,
+    pub(crate) fallback: FallbackParams,
+}
+
+impl RadioMap {
+    /// A map of `tx` / `entries` (same order) on `site`'s floors; ids must
+    /// be unique per kind.
+    pub(crate) fn assemble(
+        site: &Site,
+        tx: Vec<Transmitter>,
+        entries: Vec<MapEntry>,
+        fallback: FallbackParams,
+    ) -> Result<Self> {
+        let mut by_id = BTreeMap::new();
+        for (i, t) in tx.iter().enumerate() {
+            if by_id.insert((t.kind, t.id.clone()), i).is_some() {
+                return Err(Error::Input(format!(
+                    "radio map: transmitter `{}` appears twice",
+                    crate::bounds::echo(&t.id)
+                )));
+            }
+        }
+        Ok(RadioMap {
+            site_name: site.spec.name.clone(),
+            tx,
+            entries,
+            by_id,
+            floor_rank: site
+                .spec
+                .floors
+                .iter()
+                .enumerate()
+                .map(|(i, f)| (f.id, i as i32))
+                .collect(),
+            fallback,
+        })
+    }
+
+    /// Per-transmitter entries, indexed like [`RadioModel::transmitters`].
+    pub fn entries(&self) -> &[MapEntry] {
+        &self.entries
+    }
+
+    /// The fallback settings.
+    pub fn fallback(&self) -> &FallbackParams {
+        &self.fallback
+    }
+
+    /// Name of the site the map was built on.
+    pub fn site_name(&self) -> &str {
+        &self.site_name
+    }
+
+    fn floors_apart(&self, a: i32, b: i32) -> i32 {
+        match (self.floor_rank.get(&a), self.floor_rank.get(&b)) {
+            (Some(x), Some(y)) => (x - y).abs(),
+            _ => i32::from(a != b),
+        }
+    }
+
+    /// The fallback (mean, sd) of transmitter `tx` at `p` on `floor`.
+    pub fn fallback_expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let t = self.tx.get(tx)?;
+        let e = self.entries.get(tx)?;
+        let apart = self.floors_apart(floor, t.floor);
+        Some(fallback_at(t, e.has_pathloss, &self.fallback, apart, p))
+    }
+}
+
+/// The fallback (mean, sd) of `t` at `p`, `apart` floors away: its
+/// path-loss model (when `has_pathloss`) with the fallback spreads, or the
+/// prior; the per-floor loss and spread on other floors.
+pub(super) fn fallback_at(
+    t: &Transmitter,
+    has_pathloss: bool,
+    fb: &FallbackParams,
+    apart: i32,
+    p: Vec2,
+) -> (f64, f64) {
+    let (mut mean, mut sd) = if has_pathloss {
+        let d2 = (p - t.pos).norm_squared() + t.dz_m * t.dz_m;
+        let d = d2.sqrt().max(fb.min_range_m);
+        let sd = match t.kind {
+            TxKind::Ble => fb.ble_sd_db,
+            TxKind::Wifi => fb.wifi_sd_db,
+        };
+        (
+            t.model.rssi_1m_dbm - 10.0 * t.model.exponent * d.log10(),
+            sd,
+        )
+    } else {
+        (fb.prior_dbm, fb.prior_sd_db)
+    };
+    if apart > 0 {
+        mean -= fb.floor_loss_db * f64::from(apart);
+        sd = (sd * sd + fb.other_floor_sd_db * fb.other_floor_sd_db).sqrt();
+    }
+    (mean, sd)
+}
+
+impl RadioModel for RadioMap {
+    fn transmitters(&self) -> &[Transmitter] {
+        &self.tx
+    }
+
+    fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
+        if let Some(i) = self.by_id.get(&(kind, id.to_string())) {
+            return Some(*i);
+        }
+        let canon = match kind {
+            TxKind::Ble => normalize_beacon_id(id).ok()?,
+            TxKind::Wifi => id.to_ascii_lowercase(),
+        };
+        self.by_id.get(&(kind, canon)).copied()
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let e = self.entries.get(tx)?;
+        if let Some(v) = e
+            .grids
+            .iter()
+            .find(|g| g.floor == floor)
+            .and_then(|g| g.sample(p))
+        {
+            return Some(v);
+        }
+        self.fallback_expected(tx, floor, p)
+    }
+}
+
+#[cfg(test)]
+#[path = "radio_map_tests.rs"]
+mod tests;

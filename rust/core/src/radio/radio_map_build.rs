@@ -1,0 +1,676 @@
+//! Building a [`RadioMap`] from survey walks ([`RadioMapBuilder`]): the
+//! readings of each walked log with truth ([`super::survey`]) are binned per transmitter and floor in `bin_m`
+//! squares (count, sum, sum of squares, mean position, per-walk sums).
+//! Transmitters heard in fewer than `min_samples` readings or on fewer than
+//! `min_walks` walks are left out, and so are moving ones: where two walks
+//! passed the same bin their means (after each walk's own median offset)
+//! must agree within `moving_max_db` RMS. Each kept (transmitter, floor)
+//! gets a grid of `cell_m` cells over the box of its bins grown by
+//! `max_distance_m` (coarsened until at most `max_cells_per_grid`). A cell
+//! holds, with Gaussian kernel weights (bandwidth `bandwidth_m`) over the
+//! bins within 3 bandwidths of its centre:
+//!
+//! - mean = (sum w r + w0 mu_fb) / (sum w + w0): the kernel mean pulled
+//!   towards the fallback mean `mu_fb` with `prior_weight` pseudo-samples
+//!   (so cells with few samples near them lean on the fallback);
+//! - sd = sqrt(lambda v + (1 - lambda) sd_fb^2 + (g d)^2), lambda = sum w /
+//!   (sum w + w0), v the kernel-weighted local variance (at least
+//!   `min_sd_db`^2), d the distance to the nearest bin and g
+//!   `sd_growth_db_per_m`, clamped to [`min_sd_db`, `max_sd_db`];
+//! - nothing (the fallback) beyond `max_distance_m` from every bin.
+//!
+//! Pure: logs in as events, the map out as a struct.
+
+use std::collections::{BTreeMap, BTreeSet};
+
+use serde::{Deserialize, Serialize};
+
+use super::model::{PathLossModel, PathLossParams, RadioModel, Transmitter, TxKind};
+use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap, fallback_at};
+use super::survey::{RadioSample, SurveyCounts, SurveyOptions, survey_samples};
+use crate::Vec2;
+use crate::ble::pathloss::PathLoss;
+use crate::bounds::{
+    MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_GRID_CELLS, MAX_RADIO_MAP_TRANSMITTERS, check_count,
+};
+use crate::events::LogEvent;
+use crate::site::Site;
+use crate::{Error, Result};
+
+/// Settings of [`RadioMapBuilder`] (`fpbp calibrate --radio-map`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadioMapConfig {
+    /// Grid cell side, metres. Default 2.
+    pub cell_m: f64,
+    /// Readings are binned in squares of this side before smoothing, m. Default 1.
+    pub bin_m: f64,
+    /// Gaussian kernel bandwidth (sd), metres. Default 2.5.
+    pub bandwidth_m: f64,
+    /// Cells farther than this from every bin hold no value, metres. Default 8.
+    pub max_distance_m: f64,
+    /// Pseudo-samples of the fallback mean/spread in every cell. Default 2.
+    pub prior_weight: f64,
+    /// Spread bounds of a cell, dB. Defaults 4.5 / 12.
+    pub min_sd_db: f64,
+    pub max_sd_db: f64,
+    /// Spread added per metre of distance to the nearest bin (in
+    /// quadrature), dB/m. Default 0.8.
+    pub sd_growth_db_per_m: f64,
+    /// A transmitter needs this many readings and walks. Defaults 20 / 2.
+    pub min_samples: usize,
+    pub min_walks: usize,
+    /// Moving transmitter: RMS disagreement of walks in shared bins (each
+    /// walk's median offset removed) above this, dB. Default 6.
+    pub moving_max_db: f64,
+    /// The moving test needs this many shared bins (fewer: not tested). Default 3.
+    pub moving_min_bins: usize,
+    /// Most cells of one grid (the cell is coarsened by 1.25x until it
+    /// fits). Default 40000.
+    pub max_cells_per_grid: usize,
+    /// WiFi results older than this vs their scan are dropped, s. Default 4
+    /// (tcpf's `wifi_max_age_s`).
+    pub wifi_max_age_s: f64,
+    /// Readings weaker than this are dropped, dBm. Default -100.
+    pub min_rssi_dbm: f64,
+    /// No position across truth points further apart, s. Default 20.
+    pub max_truth_gap_s: f64,
+    /// Phone height above the floor (path-loss fallback), m. Default 1.2.
+    pub phone_height_m: f64,
+    /// Only transmitters the site has (a path-loss model from `fpbp
+    /// calibrate`, which rejects moving and non-log-distance ones) get
+    /// grids; the others are left out. Default true: on ILC F1 (even
+    /// half) every surveyed transmitter gave 16.7 m own start against 14.5
+    /// m with the site's only (docs/parameters.md).
+    pub site_transmitters_only: bool,
+    pub fallback: FallbackParams,
+}
+
+impl Default for RadioMapConfig {
+    fn default() -> Self {
+        RadioMapConfig {
+            cell_m: 2.0,
+            bin_m: 1.0,
+            bandwidth_m: 2.5,
+            max_distance_m: 8.0,
+            prior_weight: 2.0,
+            min_sd_db: 4.5,
+            max_sd_db: 12.0,
+            sd_growth_db_per_m: 0.8,
+            min_samples: 20,
+            min_walks: 2,
+            moving_max_db: 6.0,
+            moving_min_bins: 3,
+            max_cells_per_grid: 40_000,
+            wifi_max_age_s: 4.0,
+            min_rssi_dbm: -100.0,
+            max_truth_gap_s: 20.0,
+            phone_height_m: 1.2,
+            site_transmitters_only: true,
+            fallback: FallbackParams::default(),
+        }
+    }
+}
+
+impl RadioMapConfig {
+    /// Checks every field's range; errors name `radio_map.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        use crate::bounds::{MIN_GRID_STEP_M, check_range};
+        let p = "radio_map";
+        check_range(&format!("{p}.cell_m"), self.cell_m, 0.25, 100.0)?;
+        check_range(
+            &format!("{p}.bin_m"),
+            self.bin_m,
+            MIN_GRID_STEP_M.max(0.1),
+            100.0,
+        )?;
+        check_range(&format!("{p}.bandwidth_m"), self.bandwidth_m, 0.1, 50.0)?;
+        check_range(
+            &format!("{p}.max_distance_m"),
+            self.max_distance_m,
+            0.0,
+            100.0,
+        )?;
+        check_range(&format!("{p}.prior_weight"), self.prior_weight, 0.0, 1e6)?;
+        check_range(&format!("{p}.min_sd_db"), self.min_sd_db, 0.1, 50.0)?;
+        check_range(
+            &format!("{p}.max_sd_db"),
+            self.max_sd_db,
+            self.min_sd_db,
+            50.0,
+        )?;
+        check_range(
+            &format!("{p}.sd_growth_db_per_m"),
+            self.sd_growth_db_per_m,
+            0.0,
+            50.0,
+        )?;
+        check_count(&format!("{p}.min_samples"), self.min_samples, 1, 1 << 30)?;
+        check_count(&format!("{p}.min_walks"), self.min_walks, 1, 1 << 20)?;
+        check_range(
+            &format!("{p}.moving_max_db"),
+            self.moving_max_db,
+            0.0,
+            200.0,
+        )?;
+        check_count(
+            &format!("{p}.moving_min_bins"),
+            self.moving_min_bins,
+            1,
+            1 << 20,
+        )?;
+        check_count(
+            &format!("{p}.max_cells_per_grid"),
+            self.max_cells_per_grid,
+            1,
+            MAX_RADIO_MAP_GRID_CELLS,
+        )?;
+        check_range(
+            &format!("{p}.wifi_max_age_s"),
+            self.wifi_max_age_s,
+            0.0,
+            3600.0,
+        )?;
+        check_range(&format!("{p}.min_rssi_dbm"), self.min_rssi_dbm, -200.0, 0.0)?;
+        check_range(
+            &format!("{p}.max_truth_gap_s"),
+            self.max_truth_gap_s,
+            0.0,
+            86_400.0,
+        )?;
+        check_range(
+            &format!("{p}.phone_height_m"),
+            self.phone_height_m,
+            -10.0,
+            10.0,
+        )?;
+        self.fallback.validate(&format!("{p}.fallback"))
+    }
+}
+
+/// Readings of one transmitter in one bin.
+#[derive(Debug, Clone, Default)]
+struct Bin {
+    n: f64,
+    sum: f64,
+    sum2: f64,
+    pos_sum: Vec2,
+    /// walk -> (count, sum)
+    walks: BTreeMap<usize, (f64, f64)>,
+}
+
+/// Everything learned of one transmitter.
+#[derive(Debug, Clone, Default)]
+struct TxAcc {
+    samples: usize,
+    walks: BTreeSet<usize>,
+    /// floor -> bin index -> bin
+    bins: BTreeMap<i32, BTreeMap<(i64, i64), Bin>>,
+}
+
+/// Why a surveyed transmitter is not in the map (or how it entered it).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TxReport {
+    pub id: String,
+    pub kind: String,
+    pub samples: usize,
+    pub walks: usize,
+    /// RMS disagreement of walks in shared bins, dB, when tested.
+    pub disagreement_db: Option<f64>,
+    /// Grid floors built.
+    pub floors: Vec<i32>,
+    /// `None` when kept, else why it was left out.
+    pub rejected: Option<String>,
+}
+
+/// Counters of a build.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct BuildSummary {
+    pub logs: usize,
+    pub readings: usize,
+    pub placed: usize,
+    pub without_truth: usize,
+    pub invalid: usize,
+    /// Readings dropped: too many transmitters or off the floor's plan.
+    pub dropped: usize,
+    /// Transmitters surveyed, kept with grids, and site-only (fallback only).
+    pub surveyed: usize,
+    pub kept: usize,
+    pub site_only: usize,
+    pub cells: usize,
+}
+
+/// Builds a [`RadioMap`] log by log.
+pub struct RadioMapBuilder<'a> {
+    site: &'a Site,
+    cfg: RadioMapConfig,
+    site_model: PathLossModel,
+    ids: BTreeMap<(TxKind, String), usize>,
+    acc: Vec<TxAcc>,
+    summary: BuildSummary,
+}
+
+impl<'a> RadioMapBuilder<'a> {
+    /// A builder on `site` (its beacons and access points are the fallback).
+    pub fn new(site: &'a Site, cfg: &RadioMapConfig) -> Result<Self> {
+        cfg.validate()?;
+        let fb = &cfg.fallback;
+        let site_model = PathLossModel::for_site(
+            site,
+            PathLossParams {
+                ble_sd_db: fb.ble_sd_db,
+                wifi_sd_db: fb.wifi_sd_db,
+                floor_loss_db: fb.floor_loss_db,
+                other_floor_sd_db: fb.other_floor_sd_db,
+                min_range_m: fb.min_range_m,
+                phone_height_m: cfg.phone_height_m,
+            },
+        );
+        Ok(RadioMapBuilder {
+            site,
+            cfg: cfg.clone(),
+            site_model,
+            ids: BTreeMap::new(),
+            acc: Vec::new(),
+            summary: BuildSummary::default(),
+        })
+    }
+
+    /// Adds one walked log (time-ordered events with truth points).
+    pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
+        let walk = self.summary.logs;
+        self.summary.logs += 1;
+        let opts = SurveyOptions {
+            default_floor: (self.site.spec.floors.len() == 1).then(|| self.site.default_floor()),
+            max_truth_gap_ns: (self.cfg.max_truth_gap_s * 1e9) as i64,
+            wifi_max_age_ns: (self.cfg.wifi_max_age_s * 1e9) as i64,
+            min_rssi_dbm: self.cfg.min_rssi_dbm,
+        };
+        let mut dropped = 0usize;
+        let counts = survey_samples(events, &opts, |s| {
+            if !self.add_sample(walk, s) {
+                dropped += 1;
+            }
+        });
+        let sm = &mut self.summary;
+        sm.readings += counts.readings;
+        sm.placed += counts.placed;
+        sm.without_truth += counts.without_truth;
+        sm.invalid += counts.invalid;
+        sm.dropped += dropped;
+        counts
+    }
+
+    fn add_sample(&mut self, walk: usize, s: RadioSample) -> bool {
+        // on the floor's plan (with a margin): bounds the bins and grids
+        let Some(map) = self.site.floor(s.floor) else {
+            return false;
+        };
+        let m = self.cfg.max_distance_m;
+        if !(s.pos.x >= -m
+            && s.pos.y >= -m
+            && s.pos.x <= map.width_m() + m
+            && s.pos.y <= map.height_m() + m)
+        {
+            return false;
+        }
+        let next = self.acc.len();
+        let key = (s.kind, s.id);
+        let i = match self.ids.get(&key) {
+            Some(i) => *i,
+            None if next < MAX_RADIO_MAP_TRANSMITTERS => {
+                self.ids.insert(key, next);
+                self.acc.push(TxAcc::default());
+                next
+            }
+            None => return false,
+        };
+        let a = &mut self.acc[i];
+        a.samples += 1;
+        a.walks.insert(walk);
+        let b = self.cfg.bin_m;
+        let k = ((s.pos.x / b).floor() as i64, (s.pos.y / b).floor() as i64);
+        let bin = a.bins.entry(s.floor).or_default().entry(k).or_default();
+        bin.n += 1.0;
+        bin.sum += s.rssi_dbm;
+        bin.sum2 += s.rssi_dbm * s.rssi_dbm;
+        bin.pos_sum += s.pos;
+        let w = bin.walks.entry(walk).or_insert((0.0, 0.0));
+        w.0 += 1.0;
+        w.1 += s.rssi_dbm;
+        true
+    }
+
+    /// The map: every kept surveyed transmitter with its grids, then every
+    /// site transmitter not kept (path-loss fallback only); a report per
+    /// surveyed transmitter (sorted by kind and id) and the counters.
+    pub fn finish(self) -> Result<(RadioMap, Vec<TxReport>, BuildSummary)> {
+        let RadioMapBuilder {
+            site,
+            cfg,
+            site_model,
+            ids,
+            acc,
+            mut summary,
+        } = self;
+        summary.surveyed = ids.len();
+        let mut tx = Vec::new();
+        let mut entries = Vec::new();
+        let mut reports = Vec::new();
+        let mut kept = BTreeSet::new();
+        for ((kind, id), i) in &ids {
+            let a = &acc[*i];
+            let mut rep = TxReport {
+                id: id.clone(),
+                kind: kind_name(*kind).to_string(),
+                samples: a.samples,
+                walks: a.walks.len(),
+                disagreement_db: None,
+                floors: Vec::new(),
+                rejected: None,
+            };
+            let in_site = site_model.lookup(*kind, id).is_some();
+            if cfg.site_transmitters_only && !in_site {
+                rep.rejected = Some("not in the site (site_transmitters_only)".into());
+            } else if a.samples < cfg.min_samples {
+                rep.rejected = Some(format!(
+                    "{} readings < min_samples {}",
+                    a.samples, cfg.min_samples
+                ));
+            } else if a.walks.len() < cfg.min_walks {
+                rep.rejected = Some(format!(
+                    "heard on {} walks < min_walks {}",
+                    a.walks.len(),
+                    cfg.min_walks
+                ));
+            } else {
+                rep.disagreement_db = disagreement(a, cfg.moving_min_bins);
+                if let Some(d) = rep.disagreement_db.filter(|d| *d > cfg.moving_max_db) {
+                    rep.rejected = Some(format!(
+                        "walks disagree at the same place (RMS {d:.1} dB > {}): moving or carried",
+                        cfg.moving_max_db
+                    ));
+                }
+            }
+            if rep.rejected.is_none() {
+                let site_i = site_model.lookup(*kind, id);
+                let site_t = site_i
+                    .and_then(|j| site_model.transmitters().get(j))
+                    .cloned();
+                let fb_t = site_t.clone().unwrap_or_else(|| Transmitter {
+                    id: id.clone(),
+                    kind: *kind,
+                    floor: busiest_floor(a),
+                    pos: Vec2::zeros(),
+                    dz_m: 0.0,
+                    model: PathLoss {
+                        rssi_1m_dbm: cfg.fallback.prior_dbm,
+                        exponent: 2.0,
+                    },
+                });
+                let fb = Fallback {
+                    t: &fb_t,
+                    has_pathloss: site_t.is_some(),
+                    params: &cfg.fallback,
+                    floor_rank: &site_model,
+                };
+                let mut grids = Vec::new();
+                for (floor, bins) in &a.bins {
+                    if let Some(g) = build_grid(*floor, bins, &cfg, &fb)? {
+                        summary.cells += g.nx * g.ny;
+                        if summary.cells > MAX_RADIO_MAP_CELLS {
+                            return Err(Error::Input(format!(
+                                "radio map: more than {MAX_RADIO_MAP_CELLS} cells in all; \
+                                 raise radio_map.cell_m or lower max_cells_per_grid"
+                            )));
+                        }
+                        grids.push(g);
+                    }
+                }
+                rep.floors = grids.iter().map(|g| g.floor).collect();
+                if grids.is_empty() {
+                    rep.rejected = Some("no grid cell near its readings".into());
+                } else {
+                    let mut t = fb_t;
+                    if site_t.is_none() {
+                        // where it is strongest: the engine's floor vote and
+                        // missed-transmitter test use the position
+                        if let Some(p) = peak(&grids, t.floor) {
+                            t.pos = p;
+                        }
+                    }
+                    kept.insert((*kind, id.clone()));
+                    tx.push(t);
+                    entries.push(MapEntry {
+                        has_pathloss: site_t.is_some(),
+                        samples: a.samples,
+                        walks: a.walks.len(),
+                        grids,
+                    });
+                }
+            }
+            reports.push(rep);
+        }
+        summary.kept = tx.len();
+        for t in site_model.transmitters() {
+            if !kept.contains(&(t.kind, t.id.clone())) {
+                summary.site_only += 1;
+                tx.push(t.clone());
+                entries.push(MapEntry {
+                    has_pathloss: true,
+                    samples: 0,
+                    walks: 0,
+                    grids: Vec::new(),
+                });
+            }
+        }
+        let map = RadioMap::assemble(site, tx, entries, cfg.fallback)?;
+        Ok((map, reports, summary))
+    }
+}
+
+/// `ble` / `wifi`.
+pub fn kind_name(k: TxKind) -> &'static str {
+    match k {
+        TxKind::Ble => "ble",
+        TxKind::Wifi => "wifi",
+    }
+}
+
+/// The floor with the most readings.
+fn busiest_floor(a: &TxAcc) -> i32 {
+    a.bins
+        .iter()
+        .map(|(f, b)| (b.values().map(|x| x.n).sum::<f64>(), *f))
+        .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)))
+        .map_or(0, |(_, f)| f)
+}
+
+/// Centre of the strongest cell of the grid on `floor`.
+fn peak(grids: &[Grid], floor: i32) -> Option<Vec2> {
+    let g = grids.iter().find(|g| g.floor == floor).or(grids.first())?;
+    let (k, _) = g
+        .mean_dbm_x10
+        .iter()
+        .enumerate()
+        .filter(|(_, m)| **m != NO_VALUE)
+        .max_by_key(|(k, m)| (**m, std::cmp::Reverse(*k)))?;
+    let (i, j) = (k % g.nx, k / g.nx);
+    Some(Vec2::new(
+        g.x0_m + (i as f64 + 0.5) * g.cell_m,
+        g.y0_m + (j as f64 + 0.5) * g.cell_m,
+    ))
+}
+
+/// RMS disagreement of walks in bins two or more walks share, after each
+/// walk's median offset from the shared bins' means; `None` with fewer than
+/// `min_bins` shared bins.
+fn disagreement(a: &TxAcc, min_bins: usize) -> Option<f64> {
+    // (walk, residual) per shared bin
+    let mut res: Vec<(usize, f64)> = Vec::new();
+    let mut shared = 0usize;
+    for bins in a.bins.values() {
+        for b in bins.values().filter(|b| b.walks.len() >= 2) {
+            shared += 1;
+            let means: Vec<(usize, f64)> = b.walks.iter().map(|(w, (n, s))| (*w, s / n)).collect();
+            let c = means.iter().map(|m| m.1).sum::<f64>() / means.len() as f64;
+            res.extend(means.iter().map(|(w, m)| (*w, m - c)));
+        }
+    }
+    if shared < min_bins {
+        return None;
+    }
+    let mut by_walk: BTreeMap<usize, Vec<f64>> = BTreeMap::new();
+    for (w, r) in &res {
+        by_walk.entry(*w).or_default().push(*r);
+    }
+    let offsets: BTreeMap<usize, f64> = by_walk
+        .into_iter()
+        .map(|(w, mut v)| {
+            v.sort_by(f64::total_cmp);
+            (w, v[v.len() / 2])
+        })
+        .collect();
+    let ss: f64 = res
+        .iter()
+        .map(|(w, r)| (r - offsets.get(w).copied().unwrap_or(0.0)).powi(2))
+        .sum();
+    Some((ss / res.len() as f64).sqrt())
+}
+
+/// The fallback of one transmitter while building its grids.
+struct Fallback<'a> {
+    t: &'a Transmitter,
+    has_pathloss: bool,
+    params: &'a FallbackParams,
+    floor_rank: &'a PathLossModel,
+}
+
+impl Fallback<'_> {
+    fn at(&self, floor: i32, p: Vec2) -> (f64, f64) {
+        let apart = self.floor_rank.floors_apart(floor, self.t.floor);
+        fallback_at(self.t, self.has_pathloss, self.params, apart, p)
+    }
+}
+
+/// A bin reduced to what smoothing needs.
+struct BinStat {
+    pos: Vec2,
+    n: f64,
+    sum: f64,
+    sum2: f64,
+}
+
+/// The grid of one transmitter on `floor` from its bins; `None` when no
+/// cell is within `max_distance_m` of a bin.
+fn build_grid(
+    floor: i32,
+    bins: &BTreeMap<(i64, i64), Bin>,
+    cfg: &RadioMapConfig,
+    fb: &Fallback<'_>,
+) -> Result<Option<Grid>> {
+    let stats: Vec<BinStat> = bins
+        .values()
+        .filter(|b| b.n > 0.0)
+        .map(|b| BinStat {
+            pos: b.pos_sum / b.n,
+            n: b.n,
+            sum: b.sum,
+            sum2: b.sum2,
+        })
+        .collect();
+    let Some(first) = stats.first() else {
+        return Ok(None);
+    };
+    let (mut lo, mut hi) = (first.pos, first.pos);
+    for s in &stats {
+        lo = lo.inf(&s.pos);
+        hi = hi.sup(&s.pos);
+    }
+    let margin = cfg.max_distance_m;
+    let (w, h) = (hi.x - lo.x + 2.0 * margin, hi.y - lo.y + 2.0 * margin);
+    let mut cell = cfg.cell_m;
+    let cells = |c: f64| ((w / c).ceil().max(1.0), (h / c).ceil().max(1.0));
+    while {
+        let (a, b) = cells(cell);
+        a * b > cfg.max_cells_per_grid as f64
+    } {
+        cell *= 1.25;
+    }
+    let (nxf, nyf) = cells(cell);
+    let (nx, ny) = (nxf as usize, nyf as usize);
+    let (x0, y0) = (lo.x - margin, lo.y - margin);
+    // bins bucketed by the search radius
+    let h_m = cfg.bandwidth_m;
+    let radius = (3.0 * h_m).max(margin).max(1e-3);
+    let mut buckets: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
+    let key = |p: Vec2| ((p.x / radius).floor() as i64, (p.y / radius).floor() as i64);
+    for (k, s) in stats.iter().enumerate() {
+        buckets.entry(key(s.pos)).or_default().push(k);
+    }
+    let n = nx * ny;
+    let mut mean = crate::bounds::try_filled(n, NO_VALUE, "radio map grid")?;
+    let mut sd = crate::bounds::try_filled(n, NO_VALUE, "radio map grid")?;
+    let w0 = cfg.prior_weight;
+    let mut any = false;
+    for j in 0..ny {
+        for i in 0..nx {
+            let c = Vec2::new(x0 + (i as f64 + 0.5) * cell, y0 + (j as f64 + 0.5) * cell);
+            let (bx, by) = key(c);
+            let (mut sw, mut s1, mut s2) = (0.0, 0.0, 0.0);
+            let mut dmin = f64::INFINITY;
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for &k in buckets.get(&(bx + dx, by + dy)).into_iter().flatten() {
+                        let s = &stats[k];
+                        let d2 = (s.pos - c).norm_squared();
+                        dmin = dmin.min(d2);
+                        if d2 <= 9.0 * h_m * h_m {
+                            let kw = (-0.5 * d2 / (h_m * h_m)).exp();
+                            sw += kw * s.n;
+                            s1 += kw * s.sum;
+                            s2 += kw * s.sum2;
+                        }
+                    }
+                }
+            }
+            let dmin = dmin.sqrt();
+            if dmin > margin {
+                continue;
+            }
+            let (mu_fb, sd_fb) = fb.at(floor, c);
+            let (m, v) = if sw > 1e-12 {
+                let m = s1 / sw;
+                (m, (s2 / sw - m * m).max(cfg.min_sd_db * cfg.min_sd_db))
+            } else {
+                (mu_fb, sd_fb * sd_fb)
+            };
+            let lambda = if sw + w0 > 0.0 { sw / (sw + w0) } else { 1.0 };
+            let mu = lambda * m + (1.0 - lambda) * mu_fb;
+            let g = cfg.sd_growth_db_per_m * dmin;
+            let var = lambda * v + (1.0 - lambda) * sd_fb * sd_fb + g * g;
+            let s = var.sqrt().clamp(cfg.min_sd_db, cfg.max_sd_db);
+            let k = j * nx + i;
+            mean[k] = x10(mu);
+            sd[k] = x10(s).max(1);
+            any = true;
+        }
+    }
+    Ok(any.then_some(Grid {
+        floor,
+        x0_m: x0,
+        y0_m: y0,
+        cell_m: cell,
+        nx,
+        ny,
+        mean_dbm_x10: mean,
+        sd_dbm_x10: sd,
+    }))
+}
+
+/// dB to 0.1 dB units, clamped off [`NO_VALUE`].
+fn x10(v: f64) -> i16 {
+    (v * 10.0)
+        .round()
+        .clamp(f64::from(i16::MIN) + 1.0, f64::from(i16::MAX)) as i16
+}

@@ -1,0 +1,379 @@
+//! The JSON form of a [`RadioMap`]: format `fpbp-radio-map`, version 1
+//! (docs/formats.md, "Radio map"). The core does no I/O: callers hand the
+//! text (CLI: a file; app: a string through JNI) and get the map, resolved
+//! against the site (its floors; the map carries its own fallback models).
+//! Errors name the field at fault (`transmitters[3].grids[0].nx`).
+
+use serde::{Deserialize, Serialize};
+
+use super::model::{Transmitter, TxKind};
+use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap};
+use crate::Vec2;
+use crate::ble::beacon_id::normalize_beacon_id;
+use crate::ble::pathloss::PathLoss;
+use crate::bounds::{MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_GRID_CELLS, MAX_RADIO_MAP_TRANSMITTERS};
+use crate::site::Site;
+use crate::{Error, Result};
+
+/// `format` of a radio map file.
+pub const FORMAT: &str = "fpbp-radio-map";
+/// Current `version`.
+pub const VERSION: u32 = 1;
+
+/// The file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadioMapFile {
+    /// Always `fpbp-radio-map`.
+    pub format: String,
+    pub version: u32,
+    /// Name of the site it was built on (informative).
+    #[serde(default)]
+    pub site: String,
+    #[serde(default)]
+    pub fallback: FallbackParams,
+    pub transmitters: Vec<TxFile>,
+}
+
+/// `ble` or `wifi`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KindFile {
+    Ble,
+    Wifi,
+}
+
+/// One transmitter.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TxFile {
+    /// Beacon id (any spelling) or BSSID.
+    pub id: String,
+    pub kind: KindFile,
+    /// Its floor (path-loss fallback) and position (the site's, or its
+    /// strongest cell's), MCS metres.
+    pub floor: i32,
+    pub x_m: f64,
+    pub y_m: f64,
+    /// The site's path-loss model, when it had one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub pathloss: Option<PathLossFile>,
+    /// Readings and walks it was learned from.
+    #[serde(default)]
+    pub samples: usize,
+    #[serde(default)]
+    pub walks: usize,
+    #[serde(default)]
+    pub grids: Vec<GridFile>,
+}
+
+/// A path-loss fallback.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PathLossFile {
+    /// Mounting height minus phone height, metres.
+    pub dz_m: f64,
+    pub rssi_1m_dbm: f64,
+    pub exponent: f64,
+}
+
+/// One grid ([`Grid`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridFile {
+    pub floor: i32,
+    pub x0_m: f64,
+    pub y0_m: f64,
+    pub cell_m: f64,
+    pub nx: usize,
+    pub ny: usize,
+    /// Row-major (x fastest), 0.1 dB, -32768 = no value.
+    pub mean_dbm_x10: Vec<i16>,
+    pub sd_dbm_x10: Vec<i16>,
+}
+
+fn kind_of(k: KindFile) -> TxKind {
+    match k {
+        KindFile::Ble => TxKind::Ble,
+        KindFile::Wifi => TxKind::Wifi,
+    }
+}
+
+fn bad<T>(field: String, msg: String) -> Result<T> {
+    Err(Error::Input(format!("radio map: field `{field}`: {msg}")))
+}
+
+impl RadioMap {
+    /// The serialisable form.
+    pub fn to_file(&self) -> RadioMapFile {
+        RadioMapFile {
+            format: FORMAT.into(),
+            version: VERSION,
+            site: self.site_name.clone(),
+            fallback: self.fallback,
+            transmitters: self
+                .tx
+                .iter()
+                .zip(&self.entries)
+                .map(|(t, e)| TxFile {
+                    id: t.id.clone(),
+                    kind: match t.kind {
+                        TxKind::Ble => KindFile::Ble,
+                        TxKind::Wifi => KindFile::Wifi,
+                    },
+                    floor: t.floor,
+                    x_m: (t.pos.x * 100.0).round() / 100.0,
+                    y_m: (t.pos.y * 100.0).round() / 100.0,
+                    pathloss: e.has_pathloss.then_some(PathLossFile {
+                        dz_m: t.dz_m,
+                        rssi_1m_dbm: t.model.rssi_1m_dbm,
+                        exponent: t.model.exponent,
+                    }),
+                    samples: e.samples,
+                    walks: e.walks,
+                    grids: e
+                        .grids
+                        .iter()
+                        .map(|g| GridFile {
+                            floor: g.floor,
+                            x0_m: g.x0_m,
+                            y0_m: g.y0_m,
+                            cell_m: g.cell_m,
+                            nx: g.nx,
+                            ny: g.ny,
+                            mean_dbm_x10: g.mean_dbm_x10.clone(),
+                            sd_dbm_x10: g.sd_dbm_x10.clone(),
+                        })
+                        .collect(),
+                })
+                .collect(),
+        }
+    }
+
+    /// JSON text of [`RadioMap::to_file`].
+    pub fn to_json(&self) -> Result<String> {
+        serde_json::to_string(&self.to_file())
+            .map_err(|e| Error::Input(format!("radio map: cannot serialise: {e}")))
+    }
+
+    /// Parses and resolves JSON text (see [`RadioMap::from_file`]); syntax
+    /// and type errors name the field.
+    pub fn from_json(text: &str, site: &Site) -> Result<Self> {
+        let file: RadioMapFile = serde_json::from_str(text).map_err(|e| {
+            let (field, msg) = crate::site::json_path::describe(text.as_bytes(), &e);
+            Error::Input(format!("radio map: field `{field}`: {msg}"))
+        })?;
+        Self::from_file(&file, site)
+    }
+
+    /// Checks a parsed file and resolves it against `site`: every floor
+    /// must be one of the site's, every number finite and in range, every
+    /// grid's arrays `nx * ny` long; sizes bounded. Errors name the field.
+    pub fn from_file(file: &RadioMapFile, site: &Site) -> Result<Self> {
+        if file.format != FORMAT {
+            return bad(
+                "format".into(),
+                format!(
+                    "is `{}`, expected `{FORMAT}`",
+                    crate::bounds::echo(&file.format)
+                ),
+            );
+        }
+        if file.version != VERSION {
+            return bad(
+                "version".into(),
+                format!("is {}, this build reads {VERSION}", file.version),
+            );
+        }
+        file.fallback.validate("fallback")?;
+        if file.transmitters.len() > MAX_RADIO_MAP_TRANSMITTERS {
+            return bad(
+                "transmitters".into(),
+                format!(
+                    "{} entries, over the limit of {MAX_RADIO_MAP_TRANSMITTERS}",
+                    file.transmitters.len()
+                ),
+            );
+        }
+        let floor_ok = |f: i32| site.floor(f).is_some();
+        let mut total_cells = 0usize;
+        let mut tx = Vec::with_capacity(file.transmitters.len());
+        let mut entries = Vec::with_capacity(file.transmitters.len());
+        for (ti, t) in file.transmitters.iter().enumerate() {
+            let at = format!("transmitters[{ti}]");
+            let kind = kind_of(t.kind);
+            let id = match kind {
+                TxKind::Ble => match normalize_beacon_id(&t.id) {
+                    Ok(id) => id,
+                    Err(e) => return bad(format!("{at}.id"), e),
+                },
+                TxKind::Wifi if crate::wifi::is_bssid(&t.id) => t.id.to_ascii_lowercase(),
+                TxKind::Wifi => {
+                    return bad(
+                        format!("{at}.id"),
+                        format!("`{}` is not a BSSID", crate::bounds::echo(&t.id)),
+                    );
+                }
+            };
+            if !floor_ok(t.floor) {
+                return bad(
+                    format!("{at}.floor"),
+                    format!("floor {} is not in the site", t.floor),
+                );
+            }
+            for (f, v) in [("x_m", t.x_m), ("y_m", t.y_m)] {
+                if !v.is_finite() {
+                    return bad(format!("{at}.{f}"), "must be finite".into());
+                }
+            }
+            let (dz_m, model) = match t.pathloss {
+                Some(p) => {
+                    for (f, v) in [
+                        ("dz_m", p.dz_m),
+                        ("rssi_1m_dbm", p.rssi_1m_dbm),
+                        ("exponent", p.exponent),
+                    ] {
+                        if !v.is_finite() {
+                            return bad(format!("{at}.pathloss.{f}"), "must be finite".into());
+                        }
+                    }
+                    if p.exponent <= 0.0 {
+                        return bad(format!("{at}.pathloss.exponent"), "must be > 0".into());
+                    }
+                    (
+                        p.dz_m,
+                        PathLoss {
+                            rssi_1m_dbm: p.rssi_1m_dbm,
+                            exponent: p.exponent,
+                        },
+                    )
+                }
+                None => (
+                    0.0,
+                    PathLoss {
+                        rssi_1m_dbm: file.fallback.prior_dbm,
+                        exponent: 2.0,
+                    },
+                ),
+            };
+            let mut grids: Vec<Grid> = Vec::with_capacity(t.grids.len());
+            for (gi, g) in t.grids.iter().enumerate() {
+                let at = format!("{at}.grids[{gi}]");
+                total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
+                if total_cells > MAX_RADIO_MAP_CELLS {
+                    return bad(
+                        format!("{at}.mean_dbm_x10"),
+                        format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
+                    );
+                }
+                grids.push(check_grid(&at, g, &floor_ok)?);
+                if grids[..gi].iter().any(|o| o.floor == g.floor) {
+                    return bad(
+                        format!("{at}.floor"),
+                        format!("a second grid for floor {}", g.floor),
+                    );
+                }
+            }
+            tx.push(Transmitter {
+                id,
+                kind,
+                floor: t.floor,
+                pos: Vec2::new(t.x_m, t.y_m),
+                dz_m,
+                model,
+            });
+            entries.push(MapEntry {
+                has_pathloss: t.pathloss.is_some(),
+                samples: t.samples,
+                walks: t.walks,
+                grids,
+            });
+        }
+        RadioMap::assemble(site, tx, entries, file.fallback)
+    }
+}
+
+fn check_grid(at: &str, g: &GridFile, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid> {
+    if !floor_ok(g.floor) {
+        return bad(
+            format!("{at}.floor"),
+            format!("floor {} is not in the site", g.floor),
+        );
+    }
+    for (f, v) in [("x0_m", g.x0_m), ("y0_m", g.y0_m)] {
+        if !(v.is_finite() && v.abs() <= crate::bounds::MAX_FLOOR_SIDE_M) {
+            return bad(
+                format!("{at}.{f}"),
+                format!(
+                    "must be finite and within +-{} m",
+                    crate::bounds::MAX_FLOOR_SIDE_M
+                ),
+            );
+        }
+    }
+    if !(g.cell_m.is_finite() && (0.05..=1000.0).contains(&g.cell_m)) {
+        return bad(
+            format!("{at}.cell_m"),
+            format!(
+                "must be in [0.05, 1000], got {}",
+                crate::bounds::show(g.cell_m)
+            ),
+        );
+    }
+    if g.nx == 0 || g.ny == 0 {
+        return bad(format!("{at}.nx"), "nx and ny must be >= 1".into());
+    }
+    let n = match g.nx.checked_mul(g.ny) {
+        Some(n) if n <= MAX_RADIO_MAP_GRID_CELLS => n,
+        _ => {
+            return bad(
+                format!("{at}.nx"),
+                format!(
+                    "nx x ny = {} x {} is over the limit of {MAX_RADIO_MAP_GRID_CELLS} cells",
+                    g.nx, g.ny
+                ),
+            );
+        }
+    };
+    for (f, v) in [
+        ("mean_dbm_x10", &g.mean_dbm_x10),
+        ("sd_dbm_x10", &g.sd_dbm_x10),
+    ] {
+        if v.len() != n {
+            return bad(
+                format!("{at}.{f}"),
+                format!("has {} values, nx x ny = {n}", v.len()),
+            );
+        }
+    }
+    for (k, (&m, &s)) in g.mean_dbm_x10.iter().zip(&g.sd_dbm_x10).enumerate() {
+        if (m == NO_VALUE) != (s == NO_VALUE) {
+            return bad(
+                format!("{at}.sd_dbm_x10[{k}]"),
+                "no value (-32768) in one array but not in the other".into(),
+            );
+        }
+        if m != NO_VALUE && !(-2000..=200).contains(&m) {
+            return bad(
+                format!("{at}.mean_dbm_x10[{k}]"),
+                format!("{m} is outside [-2000, 200] (0.1 dBm)"),
+            );
+        }
+        if s != NO_VALUE && s < 1 {
+            return bad(
+                format!("{at}.sd_dbm_x10[{k}]"),
+                format!("{s} must be >= 1 (0.1 dB)"),
+            );
+        }
+    }
+    Ok(Grid {
+        floor: g.floor,
+        x0_m: g.x0_m,
+        y0_m: g.y0_m,
+        cell_m: g.cell_m,
+        nx: g.nx,
+        ny: g.ny,
+        mean_dbm_x10: g.mean_dbm_x10.clone(),
+        sd_dbm_x10: g.sd_dbm_x10.clone(),
+    })
+}

@@ -1,0 +1,358 @@
+//! Radio map: smoothing between walked lines, honest spread far from them,
+//! fallbacks, rejections, the file, and `tcpf` tracking with a map alone.
+
+use std::sync::Arc;
+
+use super::*;
+use crate::engine::replay::replay;
+use crate::engine::{EngineConfig, EngineData, build_engine_with};
+use crate::events::{BleObservation, LogEvent, TruthPoint};
+use crate::site::testkit::{beacon_site, open_map};
+
+/// A transmitter's hidden field: RSSI at `p`, or `None` when not heard.
+type Field<'a> = &'a dyn Fn(usize, usize, Vec2) -> Option<f64>;
+
+fn id(k: usize) -> String {
+    format!("mac:00:00:00:00:00:{k:02X}")
+}
+
+/// Walk `walk` along the polyline `pts` at 1 m/s from `t0_s`: truth at
+/// every vertex, a reading of each of `n_tx` transmitters every 0.5 s.
+fn survey_walk(walk: usize, pts: &[Vec2], n_tx: usize, field: Field<'_>) -> Vec<LogEvent> {
+    let mut ev = Vec::new();
+    let mut t = 0.0;
+    for w in pts.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let len = (b - a).norm();
+        let steps = (len / 0.5).round().max(1.0) as usize;
+        for s in 0..steps {
+            let u = s as f64 / steps as f64;
+            let p = a + (b - a) * u;
+            let t_ns = ((t + u * len) * 1e9) as i64;
+            if s % 8 == 0 {
+                ev.push(LogEvent::Truth(TruthPoint {
+                    t_ns,
+                    x_m: p.x,
+                    y_m: p.y,
+                    floor: Some(0),
+                }));
+            }
+            for k in 0..n_tx {
+                if let Some(r) = field(walk, k, p) {
+                    ev.push(LogEvent::Ble(BleObservation {
+                        t_ns: t_ns + 1,
+                        beacon_id: id(k),
+                        rssi_dbm: r,
+                        tx_power_dbm: None,
+                    }));
+                }
+            }
+        }
+        t += len;
+    }
+    if let Some(p) = pts.last() {
+        ev.push(LogEvent::Truth(TruthPoint {
+            t_ns: (t * 1e9) as i64,
+            x_m: p.x,
+            y_m: p.y,
+            floor: Some(0),
+        }));
+    }
+    ev
+}
+
+/// A zigzag over horizontal lines y = `ys` from x = 4 to 36.
+fn zigzag(ys: &[f64]) -> Vec<Vec2> {
+    let mut v = Vec::new();
+    for (i, y) in ys.iter().enumerate() {
+        let (a, b) = if i % 2 == 0 { (4.0, 36.0) } else { (36.0, 4.0) };
+        v.push(Vec2::new(a, *y));
+        v.push(Vec2::new(b, *y));
+    }
+    v
+}
+
+/// A log-distance field from (20, 15) with a deterministic +-2 dB ripple.
+fn field(_walk: usize, _k: usize, p: Vec2) -> Option<f64> {
+    let d = (p - Vec2::new(20.0, 15.0)).norm().max(0.5);
+    Some(-50.0 - 25.0 * d.log10() + 2.0 * (p.x * 1.3 + p.y * 0.7).sin())
+}
+
+fn truth_mean(p: Vec2) -> f64 {
+    let d = (p - Vec2::new(20.0, 15.0)).norm().max(0.5);
+    -50.0 - 25.0 * d.log10()
+}
+
+fn build(site: &Site, logs: &[Vec<LogEvent>], cfg: &RadioMapConfig) -> (RadioMap, Vec<TxReport>) {
+    let mut b = RadioMapBuilder::new(site, cfg).unwrap();
+    for l in logs {
+        b.add_log(l);
+    }
+    let (m, r, _) = b.finish().unwrap();
+    (m, r)
+}
+
+/// Defaults, but every surveyed transmitter gets a grid (the test sites
+/// mostly have no beacon entries).
+fn open_cfg() -> RadioMapConfig {
+    RadioMapConfig {
+        site_transmitters_only: false,
+        ..RadioMapConfig::default()
+    }
+}
+
+fn lines_survey(n_tx: usize, f: Field<'_>) -> Vec<Vec<LogEvent>> {
+    (0..2)
+        .map(|w| survey_walk(w, &zigzag(&[6.0, 12.0, 18.0, 24.0]), n_tx, f))
+        .collect()
+}
+
+#[test]
+fn smooths_between_walked_lines_with_a_larger_spread_off_them() {
+    let site = beacon_site(
+        "rm",
+        vec![open_map(40, 30)],
+        &[],
+        crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        },
+    );
+    let (m, rep) = build(&site, &lines_survey(1, &field), &open_cfg());
+    assert_eq!(rep.len(), 1);
+    assert!(rep[0].rejected.is_none(), "{rep:?}");
+    let i = m.lookup(TxKind::Ble, &id(0)).unwrap();
+    // the peak sits near the field's centre
+    assert!(
+        (m.transmitters()[i].pos - Vec2::new(20.0, 15.0)).norm() < 4.0,
+        "{:?}",
+        m.transmitters()[i]
+    );
+    // on a walked line and 3 m off it (between two lines): near the field
+    for p in [
+        Vec2::new(10.0, 12.0),
+        Vec2::new(10.0, 9.0),
+        Vec2::new(30.0, 21.0),
+    ] {
+        let (mu, _) = m.expected(i, 0, p).unwrap();
+        assert!(
+            (mu - truth_mean(p)).abs() < 3.5,
+            "{p:?}: {mu:.1} vs {:.1}",
+            truth_mean(p)
+        );
+    }
+    let (_, on) = m.expected(i, 0, Vec2::new(10.0, 12.0)).unwrap();
+    let (_, off) = m.expected(i, 0, Vec2::new(10.0, 9.0)).unwrap();
+    let (_, far) = m.expected(i, 0, Vec2::new(10.0, 30.5)).unwrap();
+    assert!(
+        on < off && off < far,
+        "sd on {on:.2}, between {off:.2}, far {far:.2}"
+    );
+    // beyond the grid: the site has no model of it, so the weak prior
+    let fb = m.expected(i, 0, Vec2::new(50.0, 15.0)).unwrap();
+    assert_eq!(fb, (-92.0, 10.0));
+    // unknown index, other kind
+    assert!(
+        m.expected(m.transmitters().len(), 0, Vec2::zeros())
+            .is_none()
+    );
+    assert_eq!(m.lookup(TxKind::Wifi, &id(0)), None);
+}
+
+#[test]
+fn falls_back_to_the_site_path_loss_model_far_from_the_walks() {
+    let model = crate::ble::pathloss::PathLoss {
+        rssi_1m_dbm: -55.0,
+        exponent: 2.0,
+    };
+    let maps = vec![open_map(100, 30)];
+    let site = beacon_site("rm", maps, &[(20.0, 15.0), (90.0, 15.0)], model);
+    let (m, _) = build(&site, &lines_survey(1, &field), &open_cfg());
+    let i = m.lookup(TxKind::Ble, &id(0)).unwrap();
+    assert!(!m.entries()[i].grids.is_empty() && m.entries()[i].has_pathloss);
+    // 60 m east of the walks: the path-loss formula with the fallback spread
+    let p = Vec2::new(80.0, 15.0);
+    let (mu, sd) = m.expected(i, 0, p).unwrap();
+    let d = ((p - Vec2::new(20.0, 15.0)).norm_squared() + 0.0f64).sqrt();
+    assert!((mu - (-55.0 - 20.0 * d.log10())).abs() < 1e-9, "{mu}");
+    assert_eq!(sd, m.fallback().ble_sd_db);
+    // the beacon never heard is in the map with its model only
+    let j = m.lookup(TxKind::Ble, &id(1)).unwrap();
+    assert!(m.entries()[j].grids.is_empty());
+    assert!((m.expected(j, 0, Vec2::new(90.0, 16.0)).unwrap().0 + 55.0).abs() < 1e-9);
+}
+
+#[test]
+fn rejects_moving_and_rarely_heard_transmitters() {
+    let site = beacon_site(
+        "rm",
+        vec![open_map(40, 30)],
+        &[],
+        crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        },
+    );
+    // 0: fixed; 1: somewhere else on every walk; 2: heard once
+    let f = |walk: usize, k: usize, p: Vec2| match k {
+        0 => field(walk, k, p),
+        1 => {
+            let at = if walk == 0 {
+                Vec2::new(5.0, 5.0)
+            } else {
+                Vec2::new(35.0, 25.0)
+            };
+            Some(-45.0 - 25.0 * (p - at).norm().max(0.5).log10())
+        }
+        _ => (walk == 0 && p.x < 5.0 && p.y < 7.0).then_some(-70.0),
+    };
+    let (m, rep) = build(&site, &lines_survey(3, &f), &open_cfg());
+    let by = |k: usize| {
+        rep.iter()
+            .find(|r| r.id == id(k))
+            .unwrap_or_else(|| panic!("{rep:?}"))
+    };
+    assert!(by(0).rejected.is_none(), "{:?}", by(0));
+    let moving = by(1).rejected.clone().unwrap_or_default();
+    assert!(moving.contains("moving"), "{:?}", by(1));
+    assert!(by(1).disagreement_db.unwrap() > 6.0);
+    assert!(by(0).disagreement_db.unwrap() < 2.0, "{:?}", by(0));
+    assert!(by(2).rejected.is_some(), "{:?}", by(2));
+    assert!(m.lookup(TxKind::Ble, &id(0)).is_some());
+    assert!(m.lookup(TxKind::Ble, &id(1)).is_none());
+    assert!(m.lookup(TxKind::Ble, &id(2)).is_none());
+    // by default only transmitters the site has get a grid
+    let (m, rep) = build(&site, &lines_survey(3, &f), &RadioMapConfig::default());
+    assert!(m.transmitters().is_empty());
+    assert!(rep.iter().all(|r| {
+        r.rejected
+            .as_deref()
+            .is_some_and(|w| w.contains("not in the site"))
+    }));
+}
+
+#[test]
+fn the_file_round_trips_and_bad_files_name_the_field() {
+    let site = beacon_site(
+        "rm",
+        vec![open_map(40, 30)],
+        &[(20.0, 15.0)],
+        crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        },
+    );
+    let (m, _) = build(&site, &lines_survey(1, &field), &open_cfg());
+    let text = m.to_json().unwrap();
+    assert!(text.contains("\"format\":\"fpbp-radio-map\""));
+    let back = RadioMap::from_json(&text, &site).unwrap();
+    assert_eq!(back.transmitters().len(), m.transmitters().len());
+    for i in 0..m.transmitters().len() {
+        for (x, y) in [(1.0, 1.0), (10.0, 9.0), (20.3, 15.2), (39.0, 29.0)] {
+            let p = Vec2::new(x, y);
+            let (a, b) = (
+                m.expected(i, 0, p).unwrap(),
+                back.expected(i, 0, p).unwrap(),
+            );
+            assert!(
+                (a.0 - b.0).abs() < 0.05 && (a.1 - b.1).abs() < 1e-9,
+                "{a:?} {b:?}"
+            );
+        }
+    }
+    let err = |t: &str| RadioMap::from_json(t, &site).unwrap_err().to_string();
+    let e = err(&text.replace("fpbp-radio-map", "fpbp-site"));
+    assert!(e.contains("`format`"), "{e}");
+    // a type error deep inside: the path
+    let file = m.to_file();
+    let mut v: serde_json::Value = serde_json::to_value(&file).unwrap();
+    v["transmitters"][0]["grids"][0]["nx"] = serde_json::json!("wide");
+    let e = err(&serde_json::to_string_pretty(&v).unwrap());
+    assert!(e.contains("transmitters[0].grids[0].nx"), "{e}");
+    // arrays not nx x ny long
+    let mut f2 = file.clone();
+    f2.transmitters[0].grids[0].mean_dbm_x10.pop();
+    let e = RadioMap::from_file(&f2, &site).unwrap_err().to_string();
+    assert!(e.contains("transmitters[0].grids[0].mean_dbm_x10"), "{e}");
+    // a huge grid is refused before anything is allocated for it
+    let mut f3 = file.clone();
+    f3.transmitters[0].grids[0].nx = usize::MAX / 2;
+    let e = RadioMap::from_file(&f3, &site).unwrap_err().to_string();
+    assert!(
+        e.contains("transmitters[0].grids[0].nx") && e.contains("limit"),
+        "{e}"
+    );
+    // a floor the site does not have
+    let mut f4 = file.clone();
+    f4.transmitters[0].floor = 7;
+    let e = RadioMap::from_file(&f4, &site).unwrap_err().to_string();
+    assert!(e.contains("transmitters[0].floor"), "{e}");
+    // NaN is not JSON
+    let e = err(&text.replacen("\"x_m\":", "\"x_m\":NaN,\"q\":", 1));
+    assert!(e.contains("x_m") || e.contains("NaN"), "{e}");
+    // a bad fallback setting
+    let mut f5 = file;
+    f5.fallback.prior_sd_db = -1.0;
+    let e = RadioMap::from_file(&f5, &site).unwrap_err().to_string();
+    assert!(e.contains("fallback.prior_sd_db"), "{e}");
+}
+
+#[test]
+fn bad_configs_name_the_field() {
+    let cfg = RadioMapConfig {
+        bandwidth_m: f64::NAN,
+        ..RadioMapConfig::default()
+    };
+    let e = cfg.validate().unwrap_err().to_string();
+    assert!(e.contains("radio_map.bandwidth_m"), "{e}");
+    let cfg = RadioMapConfig {
+        max_cells_per_grid: usize::MAX,
+        ..RadioMapConfig::default()
+    };
+    assert!(cfg.validate().is_err());
+}
+
+/// `tcpf` with a radio map alone (the site has no beacon entries) tracks
+/// the walk of the walled test site from its own start.
+#[test]
+fn tcpf_tracks_a_walk_with_a_radio_map_from_a_survey() {
+    use crate::engines::prox_pf::testkit::{MODEL, beacons, walk_north, walled_map};
+    let bs = beacons();
+    // survey: two walks over north-south lines of the left room
+    let field = |_w: usize, k: usize, p: Vec2| {
+        let d = crate::ble::pathloss::range_m(p, bs[k], 0.0, 0.5);
+        Some(MODEL.rssi_at(d, 0.5) + 1.5 * (p.y * 0.9 + k as f64).sin())
+    };
+    let lines: Vec<Vec2> = [3.0, 5.5, 8.0]
+        .iter()
+        .enumerate()
+        .flat_map(|(i, x)| {
+            let (a, b) = if i % 2 == 0 { (1.0, 39.0) } else { (39.0, 1.0) };
+            [Vec2::new(*x, a), Vec2::new(*x, b)]
+        })
+        .collect();
+    let survey: Vec<Vec<LogEvent>> = (0..2)
+        .map(|w| survey_walk(w, &lines, bs.len(), &field))
+        .collect();
+    let bare = beacon_site("rm-walled", vec![walled_map()], &[], MODEL);
+    let (m, rep) = build(&bare, &survey, &open_cfg());
+    assert!(
+        rep.iter().filter(|r| r.rejected.is_none()).count() >= 10,
+        "{rep:?}"
+    );
+    let data = EngineData {
+        radio_map: Some(Arc::new(m)),
+        ..EngineData::default()
+    };
+    let cfg = EngineConfig::default();
+    let mut e = build_engine_with("tcpf", bare.clone(), &cfg, None, &data).unwrap();
+    let out = replay(e.as_mut(), walk_north(30, None));
+    let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+    assert!(errs.len() >= 25, "{} scored", errs.len());
+    let mean = errs.iter().sum::<f64>() / errs.len() as f64;
+    assert!(mean < 3.0, "mean error {mean:.2} m");
+    // without the map the bare site knows no transmitter: no radio start
+    let mut plain = build_engine_with("tcpf", bare, &cfg, None, &EngineData::default()).unwrap();
+    let out = replay(plain.as_mut(), walk_north(10, None));
+    assert!(out.scored.iter().all(|s| s.error_m().is_none()));
+}

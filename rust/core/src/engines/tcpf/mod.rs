@@ -98,6 +98,10 @@ pub struct TcpfEngine {
     floor: i32,
     /// Consecutive radio votes for another floor (no barometer).
     other_floor: Option<(i32, u32)>,
+    /// Floors whose map has more than one room: there the walls can say a
+    /// cloud is lost (the re-seeding gate); on a floor that is one open
+    /// area the radio alone decides.
+    walled: BTreeMap<i32, bool>,
     /// Start / re-seeding cells per floor (walkable, `cell_m` apart).
     cells: BTreeMap<i32, Vec<Vec2>>,
     before: Vec<Vec2>,
@@ -176,7 +180,15 @@ impl TcpfEngine {
             .zip(&site.floors)
             .map(|(f, m)| (f.id, cells_of(m, cfg.cell_m)))
             .collect();
+        let walled = site
+            .spec
+            .floors
+            .iter()
+            .zip(&site.floors)
+            .map(|(f, m)| (f.id, m.rooms().len() > 1))
+            .collect();
         let mut e = TcpfEngine {
+            walled,
             pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
             pf: ParticleFilter::new(&cfg.filter(), config.seed),
             floors: FloorTracker::for_site(&config.ekf.floor, &site, start_floor),
@@ -471,7 +483,8 @@ impl TcpfEngine {
             } else {
                 (reseed > 0.0
                     && gap > self.cfg.recovery_margin
-                    && self.kill_ema >= self.cfg.recovery_min_wall_kill)
+                    && (self.kill_ema >= self.cfg.recovery_min_wall_kill
+                        || !self.walled.get(&floor).copied().unwrap_or(false)))
                     .then_some(reseed)
             }
         {

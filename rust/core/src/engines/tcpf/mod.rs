@@ -485,7 +485,7 @@ impl TcpfEngine {
                     && gap > self.cfg.recovery_margin
                     && (self.kill_ema >= self.cfg.recovery_min_wall_kill
                         || !self.walled.get(&floor).copied().unwrap_or(false)))
-                    .then_some(reseed)
+                .then_some(reseed)
             }
         {
             let reseed = fraction;

@@ -29,6 +29,24 @@ pub struct Transmitter {
     pub model: PathLoss,
 }
 
+/// The index of `id` of `kind` in `by_id`, trying the id as given, then
+/// its canonical spelling (beacon ids normalised, BSSIDs lower-case): the
+/// lookup every [`RadioModel`] shares.
+pub(crate) fn lookup_in(
+    by_id: &BTreeMap<(TxKind, String), usize>,
+    kind: TxKind,
+    id: &str,
+) -> Option<usize> {
+    if let Some(i) = by_id.get(&(kind, id.to_string())) {
+        return Some(*i);
+    }
+    let canon = match kind {
+        TxKind::Ble => normalize_beacon_id(id).ok()?,
+        TxKind::Wifi => id.to_ascii_lowercase(),
+    };
+    by_id.get(&(kind, canon)).copied()
+}
+
 /// Expected RSSI of a transmitter at a position and the spread around it.
 pub trait RadioModel: Send + Sync {
     /// Every transmitter, indexed as [`RadioModel::lookup`] returns.
@@ -159,14 +177,7 @@ impl RadioModel for PathLossModel {
     }
 
     fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
-        if let Some(i) = self.by_id.get(&(kind, id.to_string())) {
-            return Some(*i);
-        }
-        let canon = match kind {
-            TxKind::Ble => normalize_beacon_id(id).ok()?,
-            TxKind::Wifi => id.to_ascii_lowercase(),
-        };
-        self.by_id.get(&(kind, canon)).copied()
+        lookup_in(&self.by_id, kind, id)
     }
 
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {

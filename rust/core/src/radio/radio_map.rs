@@ -20,7 +20,6 @@ pub use super::radio_map_build::{
     BuildSummary, RadioMapBuilder, RadioMapConfig, TxReport, kind_name,
 };
 use crate::Vec2;
-use crate::ble::beacon_id::normalize_beacon_id;
 use crate::site::Site;
 use crate::{Error, Result};
 
@@ -261,14 +260,7 @@ impl RadioModel for RadioMap {
     }
 
     fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
-        if let Some(i) = self.by_id.get(&(kind, id.to_string())) {
-            return Some(*i);
-        }
-        let canon = match kind {
-            TxKind::Ble => normalize_beacon_id(id).ok()?,
-            TxKind::Wifi => id.to_ascii_lowercase(),
-        };
-        self.by_id.get(&(kind, canon)).copied()
+        super::model::lookup_in(&self.by_id, kind, id)
     }
 
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {

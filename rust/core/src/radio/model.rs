@@ -57,6 +57,12 @@ pub trait RadioModel: Send + Sync {
     /// (mean dBm, standard deviation dB) of transmitter `tx` for a phone at
     /// `p` on floor `floor`; `None` for an unknown index.
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)>;
+    /// Whether the model was learned per floor (a radio map), so that its
+    /// likelihood can tell floors apart; a path-loss model with one
+    /// attenuation per floor cannot (APs carry through floors).
+    fn learned_per_floor(&self) -> bool {
+        false
+    }
 }
 
 /// Settings of [`PathLossModel`].

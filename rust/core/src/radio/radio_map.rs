@@ -255,6 +255,10 @@ pub(super) fn fallback_at(
 }
 
 impl RadioModel for RadioMap {
+    fn learned_per_floor(&self) -> bool {
+        true
+    }
+
     fn transmitters(&self) -> &[Transmitter] {
         &self.tx
     }

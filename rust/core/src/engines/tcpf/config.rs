@@ -36,6 +36,9 @@ pub struct TcpfConfig {
     /// this long (after the first radio update) for a beacon to pick the
     /// floor, s.
     pub start_wait_ble_s: f64,
+    /// With a radio map (learned per floor), the start floor is the floor
+    /// with the most likelihood mass instead of the strongest beacons'.
+    pub start_floor_from_map: bool,
     /// Augmented MCL: slow and fast averages of the per-transmitter
     /// likelihood, and the largest fraction re-seeded per update.
     pub recovery_alpha_slow: f64,
@@ -105,6 +108,7 @@ impl Default for TcpfConfig {
             cell_m: 2.0,
             start_min_transmitters: 1,
             start_wait_ble_s: 5.0,
+            start_floor_from_map: true,
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.5,
             recovery_max_fraction: 0.2,

@@ -769,10 +769,16 @@ impl TcpfEngine {
                 // floor and floors attenuate them), else the floor with
                 // the most likelihood mass; the barometer gives floor
                 // changes, not the floor itself, until the start anchors it
-                let floor = self.radio_floor_vote(&meas);
+                let floor = if self.cfg.start_floor_from_map && self.model.learned_per_floor() {
+                    // a radio map's per-floor likelihood mass decides
+                    None
+                } else {
+                    self.radio_floor_vote(&meas)
+                };
                 let first = *self.first_radio_t_ns.get_or_insert(t_ns);
                 let wait_ns = (self.cfg.start_wait_ble_s * 1e9) as i64;
-                if floor.is_none() && self.beacon_floors > 1 && t_ns - first < wait_ns {
+                let voted = self.radio_floor_vote(&meas).is_some();
+                if !voted && self.beacon_floors > 1 && t_ns - first < wait_ns {
                     // WiFi alone cannot tell the floors apart here (APs
                     // carry through floors): wait a little for a beacon
                     return;

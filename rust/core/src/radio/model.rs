@@ -47,6 +47,32 @@ pub(crate) fn lookup_in(
     by_id.get(&(kind, canon)).copied()
 }
 
+/// The path-loss curve of `t` at a phone at `p`: the 3-D range (floored at
+/// `min_range_m`, `ble::pathloss::range_m`) through `t`'s R0 and exponent.
+pub(crate) fn pathloss_mean(t: &Transmitter, p: Vec2, min_range_m: f64) -> f64 {
+    let d = crate::ble::pathloss::range_m(p, t.pos, t.dz_m, min_range_m);
+    t.model.rssi_at(d, min_range_m)
+}
+
+/// (mean, sd) of a transmitter `apart` floors from the phone: `loss_db`
+/// less per floor, `extra_sd_db` more spread (added in quadrature); as is
+/// on the same floor.
+pub(crate) fn across_floors(
+    (mean, sd): (f64, f64),
+    apart: i32,
+    loss_db: f64,
+    extra_sd_db: f64,
+) -> (f64, f64) {
+    if apart > 0 {
+        (
+            mean - loss_db * f64::from(apart),
+            (sd * sd + extra_sd_db * extra_sd_db).sqrt(),
+        )
+    } else {
+        (mean, sd)
+    }
+}
+
 /// Expected RSSI of a transmitter at a position and the spread around it.
 pub trait RadioModel: Send + Sync {
     /// Every transmitter, indexed as [`RadioModel::lookup`] returns.
@@ -189,19 +215,16 @@ impl RadioModel for PathLossModel {
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
         let t = self.tx.get(tx)?;
         let pr = &self.params;
-        let d2 = (p - t.pos).norm_squared() + t.dz_m * t.dz_m;
-        let d = d2.sqrt().max(pr.min_range_m);
-        let mut mean = t.model.rssi_1m_dbm - 10.0 * t.model.exponent * d.log10();
-        let mut sd = match t.kind {
+        let sd = match t.kind {
             TxKind::Ble => pr.ble_sd_db,
             TxKind::Wifi => pr.wifi_sd_db,
         };
-        let apart = self.floors_apart(floor, t.floor);
-        if apart > 0 {
-            mean -= pr.floor_loss_db * f64::from(apart);
-            sd = (sd * sd + pr.other_floor_sd_db * pr.other_floor_sd_db).sqrt();
-        }
-        Some((mean, sd))
+        Some(across_floors(
+            (pathloss_mean(t, p, pr.min_range_m), sd),
+            self.floors_apart(floor, t.floor),
+            pr.floor_loss_db,
+            pr.other_floor_sd_db,
+        ))
     }
 }
 

@@ -233,25 +233,16 @@ pub(super) fn fallback_at(
     apart: i32,
     p: Vec2,
 ) -> (f64, f64) {
-    let (mut mean, mut sd) = if has_pathloss {
-        let d2 = (p - t.pos).norm_squared() + t.dz_m * t.dz_m;
-        let d = d2.sqrt().max(fb.min_range_m);
+    let here = if has_pathloss {
         let sd = match t.kind {
             TxKind::Ble => fb.ble_sd_db,
             TxKind::Wifi => fb.wifi_sd_db,
         };
-        (
-            t.model.rssi_1m_dbm - 10.0 * t.model.exponent * d.log10(),
-            sd,
-        )
+        (super::model::pathloss_mean(t, p, fb.min_range_m), sd)
     } else {
         (fb.prior_dbm, fb.prior_sd_db)
     };
-    if apart > 0 {
-        mean -= fb.floor_loss_db * f64::from(apart);
-        sd = (sd * sd + fb.other_floor_sd_db * fb.other_floor_sd_db).sqrt();
-    }
-    (mean, sd)
+    super::model::across_floors(here, apart, fb.floor_loss_db, fb.other_floor_sd_db)
 }
 
 impl RadioModel for RadioMap {

@@ -417,25 +417,31 @@ impl TcpfEngine {
         let alpha0 = lc.alpha(meas.len());
         self.log_l.clear();
         let mut mean_l = 0.0;
-        // log of the cloud's mean tempered likelihood (alpha0: comparable
-        // with the surface), by log-sum-exp
-        let (mut lmax, mut raw) = (
-            f64::NEG_INFINITY,
-            Vec::with_capacity(self.pf.particles().len()),
-        );
+        // untempered log-likelihood per particle first
         for p in self.pf.particles() {
             let l = log_likelihood(model.as_ref(), &lc, meas, floor, *p, o);
             let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
             mean_l += (l / m).exp();
-            self.log_l.push(alpha * (l + miss));
-            let r = alpha0 * (l + miss);
-            lmax = lmax.max(r);
-            raw.push(r);
+            self.log_l.push(l + miss);
         }
+        // log of the cloud's mean likelihood tempered by alpha0 (comparable
+        // with the surface), by log-sum-exp
+        let lmax = self
+            .log_l
+            .iter()
+            .fold(f64::NEG_INFINITY, |a, u| a.max(alpha0 * u));
+        let n = self.log_l.len().max(1) as f64;
         let cloud_ll = lmax
-            + (raw.iter().map(|r| (r - lmax).exp()).sum::<f64>() / raw.len().max(1) as f64).ln();
+            + (self
+                .log_l
+                .iter()
+                .map(|u| (alpha0 * u - lmax).exp())
+                .sum::<f64>()
+                / n)
+                .ln();
         mean_l /= self.pf.particles().len().max(1) as f64;
-        let log_l = std::mem::take(&mut self.log_l);
+        let mut log_l = std::mem::take(&mut self.log_l);
+        log_l.iter_mut().for_each(|u| *u *= alpha);
         self.pf.weight_log(&log_l);
         self.log_l = log_l;
         self.counts.radio_updates += 1;
@@ -769,16 +775,16 @@ impl TcpfEngine {
                 // floor and floors attenuate them), else the floor with
                 // the most likelihood mass; the barometer gives floor
                 // changes, not the floor itself, until the start anchors it
+                let vote = self.radio_floor_vote(&meas);
                 let floor = if self.cfg.start_floor_from_map && self.model.learned_per_floor() {
                     // a radio map's per-floor likelihood mass decides
                     None
                 } else {
-                    self.radio_floor_vote(&meas)
+                    vote
                 };
                 let first = *self.first_radio_t_ns.get_or_insert(t_ns);
                 let wait_ns = (self.cfg.start_wait_ble_s * 1e9) as i64;
-                let voted = self.radio_floor_vote(&meas).is_some();
-                if !voted && self.beacon_floors > 1 && t_ns - first < wait_ns {
+                if vote.is_none() && self.beacon_floors > 1 && t_ns - first < wait_ns {
                     // WiFi alone cannot tell the floors apart here (APs
                     // carry through floors): wait a little for a beacon
                     return;

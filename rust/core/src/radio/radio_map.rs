@@ -81,8 +81,10 @@ impl FallbackParams {
 }
 /// One grid of a transmitter on one floor: `nx` x `ny` cells of `cell_m`
 /// from (`x0_m`, `y0_m`) (row-major, x fastest), values in 0.1 dB,
-/// [`NO_VALUE`] where the fallback applies.
-#[derive(Debug, Clone, PartialEq)]
+/// [`NO_VALUE`] where the fallback applies. It is also the file's grid
+/// (`radio_map_file`, which checks it on reading).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Grid {
     pub floor: i32,
     pub x0_m: f64,
@@ -90,6 +92,7 @@ pub struct Grid {
     pub cell_m: f64,
     pub nx: usize,
     pub ny: usize,
+    /// Row-major (x fastest), 0.1 dB, -32768 ([`NO_VALUE`]) = no value.
     pub mean_dbm_x10: Vec<i16>,
     pub sd_dbm_x10: Vec<i16>,
 }

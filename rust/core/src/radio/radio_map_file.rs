@@ -64,7 +64,7 @@ pub struct TxFile {
     #[serde(default)]
     pub walks: usize,
     #[serde(default)]
-    pub grids: Vec<GridFile>,
+    pub grids: Vec<Grid>,
 }
 
 /// A path-loss fallback.
@@ -75,21 +75,6 @@ pub struct PathLossFile {
     pub dz_m: f64,
     pub rssi_1m_dbm: f64,
     pub exponent: f64,
-}
-
-/// One grid ([`Grid`]).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GridFile {
-    pub floor: i32,
-    pub x0_m: f64,
-    pub y0_m: f64,
-    pub cell_m: f64,
-    pub nx: usize,
-    pub ny: usize,
-    /// Row-major (x fastest), 0.1 dB, -32768 = no value.
-    pub mean_dbm_x10: Vec<i16>,
-    pub sd_dbm_x10: Vec<i16>,
 }
 
 fn kind_of(k: KindFile) -> TxKind {
@@ -131,20 +116,7 @@ impl RadioMap {
                     }),
                     samples: e.samples,
                     walks: e.walks,
-                    grids: e
-                        .grids
-                        .iter()
-                        .map(|g| GridFile {
-                            floor: g.floor,
-                            x0_m: g.x0_m,
-                            y0_m: g.y0_m,
-                            cell_m: g.cell_m,
-                            nx: g.nx,
-                            ny: g.ny,
-                            mean_dbm_x10: g.mean_dbm_x10.clone(),
-                            sd_dbm_x10: g.sd_dbm_x10.clone(),
-                        })
-                        .collect(),
+                    grids: e.grids.clone(),
                 })
                 .collect(),
         }
@@ -293,7 +265,7 @@ impl RadioMap {
     }
 }
 
-fn check_grid(at: &str, g: &GridFile, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid> {
+fn check_grid(at: &str, g: &Grid, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid> {
     if !floor_ok(g.floor) {
         return bad(
             format!("{at}.floor"),
@@ -366,14 +338,5 @@ fn check_grid(at: &str, g: &GridFile, floor_ok: &dyn Fn(i32) -> bool) -> Result<
             );
         }
     }
-    Ok(Grid {
-        floor: g.floor,
-        x0_m: g.x0_m,
-        y0_m: g.y0_m,
-        cell_m: g.cell_m,
-        nx: g.nx,
-        ny: g.ny,
-        mean_dbm_x10: g.mean_dbm_x10.clone(),
-        sd_dbm_x10: g.sd_dbm_x10.clone(),
-    })
+    Ok(g.clone())
 }

@@ -579,6 +579,23 @@ pub(crate) mod test_support {
     }
 }
 
+/// The engine builder of `eval` and `replay`: `build_engine_with` over
+/// `data` (fingerprints, radio map), errors as anyhow.
+pub fn builder_with(
+    data: fpbp_core::engine::EngineData,
+) -> impl Fn(
+    &str,
+    Arc<fpbp_core::site::Site>,
+    &fpbp_core::engine::EngineConfig,
+    Option<fpbp_core::engine::InitialPosition>,
+) -> anyhow::Result<Box<dyn fpbp_core::engine::Engine>> {
+    move |name, site, cfg, init| {
+        Ok(fpbp_core::engine::build_engine_with(
+            name, site, cfg, init, &data,
+        )?)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::test_support::*;

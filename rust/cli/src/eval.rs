@@ -98,15 +98,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     if let Some(p) = &args.radio_map {
         data.radio_map = Some(crate::radio_map::load(p, &site)?);
     }
-    let build = move |name: &str,
-                      site: std::sync::Arc<fpbp_core::site::Site>,
-                      cfg: &fpbp_core::engine::EngineConfig,
-                      init: Option<fpbp_core::engine::InitialPosition>|
-          -> anyhow::Result<Box<dyn fpbp_core::engine::Engine>> {
-        Ok(fpbp_core::engine::build_engine_with(
-            name, site, cfg, init, &data,
-        )?)
-    };
+    let build = common::builder_with(data);
     if let Some(crate::report::SeedList(seeds)) = args.seeds.clone() {
         let summary = run_seeds(&args, &seeds, &build, true)?;
         print_seed_table(&summary, &seeds);

@@ -59,15 +59,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         },
         ..Default::default()
     };
-    let build = move |name: &str,
-                      site: std::sync::Arc<fpbp_core::site::Site>,
-                      cfg: &fpbp_core::engine::EngineConfig,
-                      init: Option<fpbp_core::engine::InitialPosition>|
-          -> anyhow::Result<Box<dyn fpbp_core::engine::Engine>> {
-        Ok(fpbp_core::engine::build_engine_with(
-            name, site, cfg, init, &data,
-        )?)
-    };
+    let build = common::builder_with(data);
     let (m, empty) = run_inner(&args, &build)?;
     let e = &m.errors;
     println!(

@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
+use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
 use fpbp_logs::ReadOptions;
@@ -32,15 +33,27 @@ pub fn build(
         }
     };
     let mut b = RadioMapBuilder::new(site, &cfg)?;
+    let default_floor = (site.spec.floors.len() == 1).then(|| site.default_floor());
+    let mut scans = ReferenceScanBuilder::new(&ReferenceScanConfig::default(), default_floor)?;
     let bar = crate::progress::bar(logs.len() as u64);
     for l in logs {
         bar.set_message(format!("radio map: reading {}", l.display()));
         bar.inc(1);
         let events = crate::calibrate::load_events(l, opts)?;
         b.add_log(&events);
+        scans.add_log(&events);
     }
     bar.finish_and_clear();
-    let (map, reports, s) = b.finish()?;
+    let (mut map, reports, s) = b.finish()?;
+    let skipped = scans.skipped;
+    let scans = scans.finish()?;
+    println!(
+        "reference scans: {} ({} transmitters; {} windows left out: too few transmitters or a floor change)",
+        scans.scans().len(),
+        scans.ids().len(),
+        skipped
+    );
+    map.set_reference_scans(scans);
     let mut why: std::collections::BTreeMap<String, usize> = Default::default();
     for r in reports.iter().filter_map(|r| r.rejected.as_deref()) {
         let key = if r.contains("min_samples") {

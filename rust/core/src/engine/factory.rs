@@ -10,6 +10,7 @@ use crate::{Error, Result, site::Site};
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
 pub const ENGINE_NAMES: &[&str] = &[
     "tcpf",
+    "scan-knn",
     "fpbp",
     "bp",
     "pdr",
@@ -152,6 +153,21 @@ pub fn build_engine_with(
             Some(m) => crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?,
             None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
         })),
+        "scan-knn" => {
+            let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
+                Some(m) => m.clone(),
+                None => {
+                    return Err(Error::Input(
+                        "engine `scan-knn` needs a radio map with reference scans \
+                         (`fpbp calibrate --radio-map`, then `--radio-map`)"
+                            .into(),
+                    ));
+                }
+            };
+            Ok(Box::new(crate::engines::scan_knn::ScanKnnEngine::new(
+                config, model,
+            )?))
+        }
         "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
             site, config, init,
         )?)),

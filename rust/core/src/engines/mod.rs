@@ -7,5 +7,6 @@ pub mod pdr;
 pub mod ppsa;
 pub mod prox_pf;
 pub mod robust_ekf;
+pub mod scan_knn;
 pub mod tc_ekf;
 pub mod tcpf;

@@ -17,6 +17,9 @@
 //!   or prior fallback far from the walks), built by [`radio_map_build`]
 //!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
 //!   [`radio_map_file`].
+//! - [`reference_scans`]: the survey walks' scan vectors (fingerprints)
+//!   and their k-nearest-neighbour query, carried in the radio map file;
+//!   `tcpf` anchors its start and re-seeding on them.
 
 pub mod likelihood;
 pub mod model;
@@ -24,6 +27,7 @@ pub mod offset;
 pub mod radio_map;
 pub mod radio_map_build;
 pub mod radio_map_file;
+pub mod reference_scans;
 pub mod survey;
 pub mod window;
 

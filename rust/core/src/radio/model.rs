@@ -89,6 +89,10 @@ pub trait RadioModel: Send + Sync {
     fn learned_per_floor(&self) -> bool {
         false
     }
+    /// The survey's reference scans (fingerprints), when the model has them.
+    fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
+        None
+    }
 }
 
 /// Settings of [`PathLossModel`].

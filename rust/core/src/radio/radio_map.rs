@@ -159,9 +159,16 @@ pub struct RadioMap {
     pub(crate) by_id: BTreeMap<(TxKind, String), usize>,
     pub(crate) floor_rank: BTreeMap<i32, i32>,
     pub(crate) fallback: FallbackParams,
+    /// The survey's scan vectors, when the map was built with them.
+    pub(crate) scans: Option<super::reference_scans::ReferenceScans>,
 }
 
 impl RadioMap {
+    /// Attaches the survey's reference scans (carried in the map's file).
+    pub fn set_reference_scans(&mut self, scans: super::reference_scans::ReferenceScans) {
+        self.scans = Some(scans);
+    }
+
     /// A map of `tx` / `entries` (same order) on `site`'s floors; ids must
     /// be unique per kind.
     pub(crate) fn assemble(
@@ -192,6 +199,7 @@ impl RadioMap {
                 .map(|(i, f)| (f.id, i as i32))
                 .collect(),
             fallback,
+            scans: None,
         })
     }
 
@@ -251,6 +259,10 @@ pub(super) fn fallback_at(
 impl RadioModel for RadioMap {
     fn learned_per_floor(&self) -> bool {
         true
+    }
+
+    fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
+        self.scans.as_ref().filter(|s| !s.is_empty())
     }
 
     fn transmitters(&self) -> &[Transmitter] {

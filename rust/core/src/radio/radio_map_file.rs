@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::model::{Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap};
+use super::reference_scans::{ReferenceScan, ReferenceScanConfig, ReferenceScans};
 use crate::Vec2;
 use crate::ble::beacon_id::normalize_beacon_id;
 use crate::ble::pathloss::PathLoss;
@@ -17,8 +18,9 @@ use crate::{Error, Result};
 
 /// `format` of a radio map file.
 pub const FORMAT: &str = "fpbp-radio-map";
-/// Current `version`.
-pub const VERSION: u32 = 1;
+/// Current `version`: 2 added the optional `reference_scans` section;
+/// version 1 files (without it) still read.
+pub const VERSION: u32 = 2;
 
 /// The file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -33,6 +35,29 @@ pub struct RadioMapFile {
     #[serde(default)]
     pub fallback: FallbackParams,
     pub transmitters: Vec<TxFile>,
+    /// The survey's scan vectors (version 2), for `tcpf`'s anchors.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reference_scans: Option<ReferenceScansFile>,
+}
+
+/// The `reference_scans` section ([`ReferenceScans`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceScansFile {
+    #[serde(default)]
+    pub config: ReferenceScanConfig,
+    /// Transmitters, indexed by the scans' entries.
+    pub ids: Vec<IdFile>,
+    pub scans: Vec<ReferenceScan>,
+}
+
+/// One transmitter of the reference scans.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IdFile {
+    pub kind: KindFile,
+    /// Beacon id (any spelling) or BSSID.
+    pub id: String,
 }
 
 /// `ble` or `wifi`.
@@ -119,6 +144,21 @@ impl RadioMap {
                     grids: e.grids.clone(),
                 })
                 .collect(),
+            reference_scans: self.scans.as_ref().map(|r| ReferenceScansFile {
+                config: *r.config(),
+                ids: r
+                    .ids()
+                    .iter()
+                    .map(|(k, id)| IdFile {
+                        kind: match k {
+                            TxKind::Ble => KindFile::Ble,
+                            TxKind::Wifi => KindFile::Wifi,
+                        },
+                        id: id.clone(),
+                    })
+                    .collect(),
+                scans: r.scans().to_vec(),
+            }),
         }
     }
 
@@ -151,10 +191,10 @@ impl RadioMap {
                 ),
             );
         }
-        if file.version != VERSION {
+        if !(1..=VERSION).contains(&file.version) {
             return bad(
                 "version".into(),
-                format!("is {}, this build reads {VERSION}", file.version),
+                format!("is {}, this build reads 1 to {VERSION}", file.version),
             );
         }
         file.fallback.validate("fallback")?;
@@ -261,8 +301,50 @@ impl RadioMap {
                 grids,
             });
         }
-        RadioMap::assemble(site, tx, entries, file.fallback)
+        let mut map = RadioMap::assemble(site, tx, entries, file.fallback)?;
+        if let Some(r) = &file.reference_scans {
+            map.set_reference_scans(reference_scans_of(r, &floor_ok)?);
+        }
+        Ok(map)
     }
+}
+
+/// The checked [`ReferenceScans`] of a file section.
+fn reference_scans_of(
+    r: &ReferenceScansFile,
+    floor_ok: &dyn Fn(i32) -> bool,
+) -> Result<ReferenceScans> {
+    if r.ids.len() > super::reference_scans::MAX_REFERENCE_IDS {
+        return bad(
+            "reference_scans.ids".into(),
+            format!("over {} entries", super::reference_scans::MAX_REFERENCE_IDS),
+        );
+    }
+    let mut ids = Vec::with_capacity(r.ids.len());
+    for (i, t) in r.ids.iter().enumerate() {
+        let kind = kind_of(t.kind);
+        let id = match kind {
+            TxKind::Ble => match normalize_beacon_id(&t.id) {
+                Ok(id) => id,
+                Err(e) => return bad(format!("reference_scans.ids[{i}].id"), e),
+            },
+            TxKind::Wifi if t.id.len() <= 64 => t.id.to_ascii_lowercase(),
+            TxKind::Wifi => {
+                return bad(
+                    format!("reference_scans.ids[{i}].id"),
+                    "longer than 64 characters".into(),
+                );
+            }
+        };
+        ids.push((kind, id));
+    }
+    if let Some(i) = r.scans.iter().position(|s| !floor_ok(s.floor)) {
+        return bad(
+            format!("reference_scans.scans[{i}].floor"),
+            format!("floor {} is not in the site", r.scans[i].floor),
+        );
+    }
+    ReferenceScans::new(r.config, ids, r.scans.clone())
 }
 
 fn check_grid(at: &str, g: &Grid, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid> {

@@ -41,6 +41,8 @@ pub struct RadioSample {
     /// Walker's position in the MCS, metres.
     pub pos: Vec2,
     pub rssi_dbm: f64,
+    /// When it was heard (a WiFi result: its last-seen time), ns.
+    pub t_ns: i64,
 }
 
 /// Counters of one log.
@@ -110,6 +112,7 @@ pub fn survey_samples(
                     floor,
                     pos,
                     rssi_dbm,
+                    t_ns,
                 });
             }
             None => c.without_truth += 1,

@@ -91,6 +91,93 @@ pub struct TcpfConfig {
     pub min_rssi_dbm: f64,
     pub likelihood: LikelihoodConfig,
     pub offset: OffsetConfig,
+    pub anchors: AnchorConfig,
+}
+
+/// Anchors: the k reference scans of the radio map closest to the phone's
+/// trailing scan window ([`crate::radio::reference_scans`]) as a mixture
+/// of Gaussians over the floor: it shapes the global start, weighs the
+/// particles weakly, and re-seeds a cloud that has lost it. Used only with
+/// a radio map that carries reference scans.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct AnchorConfig {
+    /// Candidates per query (0 = anchors off).
+    pub k: usize,
+    /// A query needs this many transmitters in its window.
+    pub min_transmitters: usize,
+    /// Candidate weight exp(-(d - d_best) / tau_db) of its RSSI distance d.
+    pub tau_db: f64,
+    /// Spread of each candidate's Gaussian, metres.
+    pub sigma_m: f64,
+    /// Mixture floor relative to a lone candidate's peak: a particle far
+    /// from every candidate keeps this much likelihood (heavy tail).
+    pub floor: f64,
+    /// Exponent of the mixture in each radio update (0 = start and
+    /// re-seeding only).
+    pub weight: f64,
+    /// Exponent of the mixture on the global start's cell weights.
+    pub start_weight: f64,
+    /// The start floor is the anchors' heaviest floor.
+    pub start_floor: bool,
+    /// With reference scans, the start waits up to this long (after the
+    /// first radio update) for a query with candidates, s.
+    pub start_wait_s: f64,
+    /// Re-seeding: when the cloud's support (its weighted mean of the
+    /// mixture over the mixture's peak) stays below `reseed_support` for
+    /// `reseed_after` radio updates, `reseed_fraction` of the particles
+    /// are drawn around the candidates.
+    pub reseed_support: f64,
+    pub reseed_after: u32,
+    pub reseed_fraction: f64,
+    /// The query's RSSI less the phone offset estimate.
+    pub use_offset: bool,
+}
+
+impl Default for AnchorConfig {
+    fn default() -> Self {
+        AnchorConfig {
+            k: 8,
+            min_transmitters: 3,
+            tau_db: 2.0,
+            sigma_m: 4.0,
+            floor: 0.05,
+            weight: 1.0,
+            start_weight: 1.0,
+            start_floor: true,
+            start_wait_s: 5.0,
+            reseed_support: 0.1,
+            reseed_after: 3,
+            reseed_fraction: 0.3,
+            use_offset: true,
+        }
+    }
+}
+
+impl AnchorConfig {
+    /// Checks every field; errors name `tcpf.anchors.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        for (f, v, lo, hi) in [
+            ("tau_db", self.tau_db, 0.01, 100.0),
+            ("sigma_m", self.sigma_m, 0.1, 100.0),
+            ("floor", self.floor, 1e-9, 10.0),
+            ("weight", self.weight, 0.0, 100.0),
+            ("start_weight", self.start_weight, 0.0, 100.0),
+            ("start_wait_s", self.start_wait_s, 0.0, 600.0),
+            ("reseed_support", self.reseed_support, 0.0, 1.0),
+            ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),
+        ] {
+            crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
+        }
+        if self.k > 256 || !(1..=1024).contains(&self.min_transmitters) || self.reseed_after > 1000
+        {
+            return Err(crate::Error::config(
+                "tcpf.anchors.k",
+                "k must be <= 256, min_transmitters in 1..=1024, reseed_after <= 1000",
+            ));
+        }
+        Ok(())
+    }
 }
 
 impl Default for TcpfConfig {
@@ -130,6 +217,7 @@ impl Default for TcpfConfig {
             min_rssi_dbm: -100.0,
             likelihood: LikelihoodConfig::default(),
             offset: OffsetConfig::default(),
+            anchors: AnchorConfig::default(),
         }
     }
 }
@@ -254,6 +342,7 @@ impl TcpfConfig {
             ));
         }
         self.likelihood.validate()?;
+        self.anchors.validate()?;
         self.offset.validate()
     }
 

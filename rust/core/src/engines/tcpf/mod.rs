@@ -29,7 +29,7 @@ pub mod config;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-pub use config::TcpfConfig;
+pub use config::{AnchorConfig, TcpfConfig};
 
 use crate::Result;
 use crate::Vec2;
@@ -42,6 +42,7 @@ use crate::map::FloorMap;
 use crate::pdr::Pdr;
 use crate::radio::likelihood::{log_likelihood, missing_log_likelihood, profiled};
 use crate::radio::model::PathLossParams;
+use crate::radio::reference_scans::ScanTrail;
 use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWindow, TxKind};
 use crate::site::Site;
 use crate::wifi::FreshResults;
@@ -68,11 +69,38 @@ pub struct TcpfCounts {
     pub held: u64,
     pub jumps: u64,
     pub floor_changes: u64,
+    /// Anchor queries that gave candidates, and particles re-seeded
+    /// around them.
+    pub anchor_queries: u64,
+    pub anchor_reseeded: u64,
 }
 
-/// One radio task's output: time, heard transmitters, and missed ones with
-/// their radio's sensitivity (dBm).
-type RadioSet = (i64, Vec<Measurement>, Vec<(usize, f64)>);
+/// One candidate place of the reference-scan query, with its weight
+/// (the weights of one query sum to 1).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Anchor {
+    floor: i32,
+    pos: Vec2,
+    w: f64,
+}
+
+/// One radio task's output: time, heard transmitters, missed ones with
+/// their radio's sensitivity (dBm), and the anchors of the scan window.
+struct RadioSet {
+    meas: Vec<Measurement>,
+    missing: Vec<(usize, f64)>,
+    anchors: Vec<Anchor>,
+}
+
+/// The anchors' mixture at `p` on `floor`: sum of w exp(-d^2 / 2 sigma^2).
+fn anchor_mix(anchors: &[Anchor], floor: i32, p: Vec2, sigma_m: f64) -> f64 {
+    let k = -0.5 / (sigma_m * sigma_m);
+    anchors
+        .iter()
+        .filter(|a| a.floor == floor)
+        .map(|a| a.w * ((p - a.pos).norm_squared() * k).exp())
+        .sum()
+}
 
 /// The tightly coupled radio-likelihood particle filter.
 pub struct TcpfEngine {
@@ -87,6 +115,10 @@ pub struct TcpfEngine {
     /// Measurement set of the last radio task (heard, and missed with
     /// their radio's sensitivity), not yet used by fusion.
     pending: Option<RadioSet>,
+    /// The phone's trailing window for the reference-scan query.
+    trail: ScanTrail,
+    /// Consecutive radio updates with the cloud away from the anchors.
+    low_support: u32,
     /// Last time each model transmitter was heard (cached WiFi results
     /// included), ns; i64::MIN never.
     last_heard: Vec<i64>,
@@ -195,6 +227,8 @@ impl TcpfEngine {
             window: ScanWindow::default(),
             fresh_wifi: FreshResults::default(),
             pending: None,
+            trail: ScanTrail::default(),
+            low_support: 0,
             last_heard: vec![i64::MIN; model.transmitters().len()],
             ble_active: false,
             wifi_active: false,
@@ -280,6 +314,7 @@ impl TcpfEngine {
         floor: i32,
         meas: &[Measurement],
         missing: &[(usize, f64)],
+        anchors: &[Anchor],
     ) -> Option<(Vec<Vec2>, Vec<f64>, f64, f64)> {
         let cells = self.cells.get(&floor)?;
         if cells.is_empty() || meas.is_empty() {
@@ -295,6 +330,13 @@ impl TcpfEngine {
             let miss = missing_log_likelihood(self.model.as_ref(), lc, missing, floor, *c, o);
             ll.push(alpha * (l + miss));
             offs.push(o);
+        }
+        let ac = &self.cfg.anchors;
+        if !anchors.is_empty() && ac.start_weight > 0.0 {
+            for (l, c) in ll.iter_mut().zip(cells) {
+                let a = anchor_mix(anchors, floor, *c, ac.sigma_m);
+                *l += ac.start_weight * ((ac.floor + a) / (ac.floor + 1.0)).ln();
+            }
         }
         let max = ll.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         if !max.is_finite() {
@@ -335,6 +377,7 @@ impl TcpfEngine {
         t_ns: i64,
         meas: &[Measurement],
         missing: &[(usize, f64)],
+        anchors: &[Anchor],
         floor: Option<i32>,
     ) -> bool {
         let floors: Vec<i32> = match floor {
@@ -343,7 +386,7 @@ impl TcpfEngine {
         };
         let best = floors
             .into_iter()
-            .filter_map(|f| self.surface(f, meas, missing).map(|s| (f, s)))
+            .filter_map(|f| self.surface(f, meas, missing, anchors).map(|s| (f, s)))
             .max_by(|a, b| a.1.2.total_cmp(&b.1.2).then(b.0.cmp(&a.0)));
         let Some((f, (cells, w, _, o))) = best else {
             return false;
@@ -358,6 +401,7 @@ impl TcpfEngine {
         });
         self.offset.set(o, self.offset.sd_db());
         self.monitor.reset();
+        self.low_support = 0;
         self.published = None;
         self.hold_runs = 0;
         self.counts.global_starts += 1;
@@ -400,7 +444,13 @@ impl TcpfEngine {
 
     /// Weighs the particles with one measurement set, updates the phone
     /// offset, the floor and, when the cloud has lost the radio, re-seeds.
-    fn radio_update(&mut self, t_ns: i64, meas: &[Measurement], missing: &[(usize, f64)]) {
+    fn radio_update(
+        &mut self,
+        t_ns: i64,
+        meas: &[Measurement],
+        missing: &[(usize, f64)],
+        anchors: &[Anchor],
+    ) {
         let lc = self.cfg.likelihood.clone();
         let model = Arc::clone(&self.model);
         let floor = self.floor;
@@ -442,6 +492,15 @@ impl TcpfEngine {
         mean_l /= self.pf.particles().len().max(1) as f64;
         let mut log_l = std::mem::take(&mut self.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
+        let support = self.anchor_support(anchors, floor);
+        let ac = &self.cfg.anchors;
+        if !anchors.is_empty() && ac.weight > 0.0 {
+            let norm = (ac.floor + 1.0).ln();
+            for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
+                let a = anchor_mix(anchors, floor, *p, ac.sigma_m);
+                *u += ac.weight * ((ac.floor + a).ln() - norm);
+            }
+        }
         self.pf.weight_log(&log_l);
         self.log_l = log_l;
         self.counts.radio_updates += 1;
@@ -482,7 +541,7 @@ impl TcpfEngine {
             self.radio_updates_since_check = 0;
         }
         if (reseed > 0.0 || check)
-            && let Some((cells, w, lse, _)) = self.surface(floor, meas, missing)
+            && let Some((cells, w, lse, _)) = self.surface(floor, meas, missing, &[])
             && let gap = lse - w.iter().sum::<f64>().ln() - cloud_ll
             && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
                 Some(self.cfg.recovery_max_fraction)
@@ -505,7 +564,117 @@ impl TcpfEngine {
                 });
             self.counts.reseeded += n as u64;
         }
+        self.anchor_reseed(anchors, floor, support);
         self.update_floor(t_ns, meas);
+    }
+
+    /// The cloud's weighted mean of the anchor mixture over the mixture's
+    /// highest value at a candidate of `floor` (1: the cloud sits on the
+    /// best candidates; 0: far from all). `None` without anchors there.
+    fn anchor_support(&self, anchors: &[Anchor], floor: i32) -> Option<f64> {
+        let sigma = self.cfg.anchors.sigma_m;
+        let peak = anchors
+            .iter()
+            .filter(|a| a.floor == floor)
+            .map(|a| anchor_mix(anchors, floor, a.pos, sigma))
+            .fold(0.0, f64::max);
+        if peak <= 0.0 {
+            return None;
+        }
+        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let wsum: f64 = ws.iter().sum();
+        if wsum <= 0.0 {
+            return None;
+        }
+        let s: f64 = ps
+            .iter()
+            .zip(ws)
+            .map(|(p, w)| w * anchor_mix(anchors, floor, *p, sigma))
+            .sum();
+        Some(s / wsum / peak)
+    }
+
+    /// Re-seeds part of the cloud around the anchors of `floor` when its
+    /// support has stayed low for `reseed_after` updates.
+    fn anchor_reseed(&mut self, anchors: &[Anchor], floor: i32, support: Option<f64>) {
+        let ac = self.cfg.anchors.clone();
+        let Some(s) = support else { return };
+        if ac.reseed_fraction <= 0.0 || ac.reseed_after == 0 {
+            return;
+        }
+        if s >= ac.reseed_support {
+            self.low_support = 0;
+            return;
+        }
+        self.low_support += 1;
+        if self.low_support < ac.reseed_after {
+            return;
+        }
+        self.low_support = 0;
+        let (cells, w): (Vec<Vec2>, Vec<f64>) = anchors
+            .iter()
+            .filter(|a| a.floor == floor)
+            .map(|a| (a.pos, a.w))
+            .unzip();
+        let site = Arc::clone(&self.site);
+        let map = site.floor(floor);
+        self.pf.resample();
+        let n = self
+            .pf
+            .inject_from_cells(ac.reseed_fraction, &cells, &w, 2.0 * ac.sigma_m, |q| {
+                map.is_none_or(|m| m.is_walkable(q))
+            });
+        self.counts.anchor_reseeded += n as u64;
+    }
+
+    /// The anchors of the trailing scan window: the `k` closest reference
+    /// scans of the model, weighted by their RSSI distance.
+    fn query_anchors(&mut self, t_ns: i64) -> Vec<Anchor> {
+        let model = Arc::clone(&self.model);
+        let ac = &self.cfg.anchors;
+        let Some(scans) = model.reference_scans() else {
+            return Vec::new();
+        };
+        if ac.k == 0 {
+            return Vec::new();
+        }
+        let off = if ac.use_offset {
+            self.offset.mean_db()
+        } else {
+            0.0
+        };
+        let q = self.trail.vector(t_ns, scans.config().window_s, off);
+        if q.len() < ac.min_transmitters {
+            return Vec::new();
+        }
+        let has = |k: TxKind| q.iter().any(|(j, _)| scans.kind(*j) == Some(k));
+        let c = scans.query(&q, has(TxKind::Ble), has(TxKind::Wifi), ac.k);
+        let Some(d0) = c.first().map(|c| c.dist_db) else {
+            return Vec::new();
+        };
+        let mut out: Vec<Anchor> = c
+            .iter()
+            .map(|c| Anchor {
+                floor: c.floor,
+                pos: c.pos,
+                w: (-(c.dist_db - d0) / ac.tau_db).exp(),
+            })
+            .collect();
+        let total: f64 = out.iter().map(|a| a.w).sum();
+        out.iter_mut().for_each(|a| a.w /= total);
+        self.counts.anchor_queries += 1;
+        out
+    }
+
+    /// The floor holding most of the anchors' weight.
+    fn anchor_floor(anchors: &[Anchor]) -> Option<i32> {
+        let mut by: BTreeMap<i32, f64> = BTreeMap::new();
+        for a in anchors {
+            *by.entry(a.floor).or_insert(0.0) += a.w;
+        }
+        by.into_iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
+            .map(|(f, _)| f)
     }
 
     fn update_floor(&mut self, t_ns: i64, meas: &[Measurement]) {
@@ -553,7 +722,7 @@ impl TcpfEngine {
                 self.published = Some(p);
             }
             _ => {
-                self.global_start(t_ns, meas, &[], Some(f));
+                self.global_start(t_ns, meas, &[], &[], Some(f));
             }
         }
     }
@@ -760,7 +929,12 @@ impl TcpfEngine {
         } else {
             Vec::new()
         };
-        self.pending = Some((t_ns, meas, missing));
+        let anchors = self.query_anchors(t_ns);
+        self.pending = Some(RadioSet {
+            meas,
+            missing,
+            anchors,
+        });
     }
 
     fn fusion_task(&mut self, t_ns: i64) {
@@ -768,7 +942,11 @@ impl TcpfEngine {
         let pending = self.pending.take();
         if !self.pf.is_initialized() {
             self.stats.no_fix += 1;
-            if let Some((_, meas, missing)) = pending
+            if let Some(RadioSet {
+                meas,
+                missing,
+                anchors,
+            }) = pending
                 && meas.len() >= self.cfg.start_min_transmitters
             {
                 // the strongest beacons' floor (BLE beacons are few per
@@ -776,20 +954,41 @@ impl TcpfEngine {
                 // the most likelihood mass; the barometer gives floor
                 // changes, not the floor itself, until the start anchors it
                 let vote = self.radio_floor_vote(&meas);
-                let floor = if self.cfg.start_floor_from_map && self.model.learned_per_floor() {
+                let by_anchors = if self.cfg.anchors.start_floor {
+                    Self::anchor_floor(&anchors)
+                } else {
+                    None
+                };
+                let floor = if by_anchors.is_some() {
+                    by_anchors
+                } else if self.cfg.start_floor_from_map && self.model.learned_per_floor() {
                     // a radio map's per-floor likelihood mass decides
                     None
                 } else {
                     vote
                 };
                 let first = *self.first_radio_t_ns.get_or_insert(t_ns);
+                let anchor_wait_ns = (self.cfg.anchors.start_wait_s * 1e9) as i64;
+                if anchors.is_empty()
+                    && self.cfg.anchors.k > 0
+                    && self.model.reference_scans().is_some()
+                    && t_ns - first < anchor_wait_ns
+                {
+                    // the survey's scans can place the start: wait a
+                    // little for a window they recognise
+                    return;
+                }
                 let wait_ns = (self.cfg.start_wait_ble_s * 1e9) as i64;
-                if vote.is_none() && self.beacon_floors > 1 && t_ns - first < wait_ns {
+                if by_anchors.is_none()
+                    && vote.is_none()
+                    && self.beacon_floors > 1
+                    && t_ns - first < wait_ns
+                {
                     // WiFi alone cannot tell the floors apart here (APs
                     // carry through floors): wait a little for a beacon
                     return;
                 }
-                if self.global_start(t_ns, &meas, &missing, floor) {
+                if self.global_start(t_ns, &meas, &missing, &anchors, floor) {
                     self.publish(t_ns);
                 }
             }
@@ -801,11 +1000,15 @@ impl TcpfEngine {
                 self.step(s.length_m, s.yaw_rad);
             }
         }
-        if let Some((_, meas, missing)) = pending
+        if let Some(RadioSet {
+            meas,
+            missing,
+            anchors,
+        }) = pending
             && !meas.is_empty()
         {
             self.last_radio_t_ns = Some(t_ns);
-            self.radio_update(t_ns, &meas, &missing);
+            self.radio_update(t_ns, &meas, &missing, &anchors);
         }
         self.publish(t_ns);
     }
@@ -831,6 +1034,12 @@ impl Engine for TcpfEngine {
         if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
             self.stats.rejected_inputs += 1;
             return;
+        }
+        if let Some(scans) = self.model.reference_scans()
+            && obs.rssi_dbm >= self.cfg.min_rssi_dbm
+        {
+            self.trail
+                .push_ble(scans, &obs.beacon_id, obs.t_ns, obs.rssi_dbm);
         }
         match self.model.lookup(TxKind::Ble, &obs.beacon_id) {
             Some(tx) => {
@@ -864,6 +1073,10 @@ impl Engine for TcpfEngine {
             }
             if r.rssi_dbm < self.cfg.min_rssi_dbm {
                 continue;
+            }
+            if let Some(scans) = self.model.reference_scans() {
+                self.trail
+                    .push_wifi(scans, &r.bssid, r.seen_t_ns.min(scan.t_ns), r.rssi_dbm);
             }
             if let Some(tx) = self.model.lookup(TxKind::Wifi, &r.bssid) {
                 self.window.push(tx, r.rssi_dbm);

@@ -1,0 +1,168 @@
+//! Engine `scan-knn`: weighted k-nearest-neighbour fingerprinting over the
+//! reference scans of a radio map ([`crate::radio::reference_scans`]), no
+//! motion, no map: the yardstick of what the scan vectors alone carry (the
+//! causal kNN baseline of issue 16), and the anchors `tcpf` uses, seen on
+//! their own. Every radio period the trailing window's vector is compared
+//! with every reference scan; the pose is the weighted mean of the `k`
+//! closest on their heaviest floor (weights exp(-(d - d_best) / tau)).
+//! Settings: `tcpf.anchors` (k, min_transmitters, tau_db) and the
+//! reference scans' own window. Without a radio map that carries
+//! reference scans it gives no pose.
+
+use std::sync::Arc;
+
+use crate::Vec2;
+use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
+use crate::events::{BleObservation, SensorEvent, WifiScan};
+use crate::radio::reference_scans::ScanTrail;
+use crate::radio::{RadioModel, TxKind};
+use crate::wifi::FreshResults;
+
+/// The engine.
+pub struct ScanKnnEngine {
+    model: Arc<dyn RadioModel>,
+    trail: ScanTrail,
+    fresh_wifi: FreshResults,
+    k: usize,
+    min_transmitters: usize,
+    tau_db: f64,
+    wifi_max_age_s: f64,
+    period_ns: i64,
+    pose: Option<Pose>,
+    stats: EngineStats,
+}
+
+impl ScanKnnEngine {
+    /// The engine over `model`'s reference scans.
+    pub fn new(config: &EngineConfig, model: Arc<dyn RadioModel>) -> crate::Result<Self> {
+        config.validate()?;
+        let a = &config.tcpf.anchors;
+        Ok(ScanKnnEngine {
+            model,
+            trail: ScanTrail::default(),
+            fresh_wifi: FreshResults::default(),
+            k: a.k.max(1),
+            min_transmitters: a.min_transmitters,
+            tau_db: a.tau_db,
+            wifi_max_age_s: config.tcpf.wifi_max_age_s,
+            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            pose: None,
+            stats: EngineStats::default(),
+        })
+    }
+
+    fn fix(&mut self, t_ns: i64) {
+        let model = Arc::clone(&self.model);
+        let Some(scans) = model.reference_scans() else {
+            self.stats.no_fix += 1;
+            return;
+        };
+        let q = self.trail.vector(t_ns, scans.config().window_s, 0.0);
+        if q.len() < self.min_transmitters {
+            self.stats.no_fix += 1;
+            return;
+        }
+        let has = |k: TxKind| q.iter().any(|(j, _)| scans.kind(*j) == Some(k));
+        let c = scans.query(&q, has(TxKind::Ble), has(TxKind::Wifi), self.k);
+        let Some(d0) = c.first().map(|c| c.dist_db) else {
+            self.stats.no_fix += 1;
+            return;
+        };
+        let w: Vec<f64> = c
+            .iter()
+            .map(|c| (-(c.dist_db - d0) / self.tau_db).exp())
+            .collect();
+        let mut by_floor: std::collections::BTreeMap<i32, f64> = Default::default();
+        for (c, w) in c.iter().zip(&w) {
+            *by_floor.entry(c.floor).or_insert(0.0) += w;
+        }
+        let Some(floor) = by_floor
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
+            .map(|(f, _)| *f)
+        else {
+            return;
+        };
+        let (mut s, mut ws) = (Vec2::zeros(), 0.0);
+        for (c, w) in c.iter().zip(&w).filter(|(c, _)| c.floor == floor) {
+            s += c.pos * *w;
+            ws += w;
+        }
+        let mean = s / ws;
+        let spread = (c
+            .iter()
+            .zip(&w)
+            .filter(|(c, _)| c.floor == floor)
+            .map(|(c, w)| w * (c.pos - mean).norm_squared())
+            .sum::<f64>()
+            / ws)
+            .sqrt();
+        let floor_prob = by_floor[&floor] / w.iter().sum::<f64>();
+        self.pose = Some(Pose {
+            t_ns,
+            x_m: mean.x,
+            y_m: mean.y,
+            floor,
+            heading_rad: 0.0,
+            accuracy_m: spread.max(1.0),
+            floor_prob,
+            source: PoseSource::Radio,
+        });
+    }
+}
+
+impl Engine for ScanKnnEngine {
+    fn name(&self) -> &'static str {
+        "scan-knn"
+    }
+
+    fn on_sensor(&mut self, _event: &SensorEvent) {
+        self.stats.sensor_events += 1;
+    }
+
+    fn on_ble(&mut self, obs: &BleObservation) {
+        self.stats.ble_observations += 1;
+        if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
+            self.stats.rejected_inputs += 1;
+            return;
+        }
+        if let Some(scans) = self.model.reference_scans() {
+            self.trail
+                .push_ble(scans, &obs.beacon_id, obs.t_ns, obs.rssi_dbm);
+        }
+    }
+
+    fn on_wifi(&mut self, scan: &WifiScan) {
+        self.stats.count_wifi(scan);
+        let max_age = (self.wifi_max_age_s * 1e9) as i64;
+        let Some(scans) = self.model.reference_scans() else {
+            return;
+        };
+        for r in self.fresh_wifi.of(scan, max_age) {
+            if r.rssi_dbm.is_finite() && r.rssi_dbm < 0.0 {
+                self.trail
+                    .push_wifi(scans, &r.bssid, r.seen_t_ns.min(scan.t_ns), r.rssi_dbm);
+            } else {
+                self.stats.rejected_inputs += 1;
+            }
+        }
+    }
+
+    fn run_task(&mut self, task: Task, t_ns: i64) {
+        if task == Task::Ble {
+            self.fix(t_ns);
+        }
+    }
+
+    fn task_period_ns(&self, task: Task) -> Option<i64> {
+        (task == Task::Ble).then_some(self.period_ns)
+    }
+
+    fn pose(&self) -> Option<Pose> {
+        self.pose
+    }
+
+    fn stats(&self) -> EngineStats {
+        self.stats.clone()
+    }
+}

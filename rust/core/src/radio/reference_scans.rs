@@ -1,0 +1,617 @@
+//! Reference scans: the fingerprints of survey walks. Every `step_s` of a
+//! walk with truth, the readings of the last `window_s` (each BLE advert
+//! and each new WiFi result, [`super::survey`]) become one RSSI vector
+//! (mean per transmitter) at the walker's position and floor. A phone's
+//! own trailing window of the same length is compared with every
+//! reference scan ([`ReferenceScans::query`]): the closest ones are the
+//! candidate places of a weighted k-nearest-neighbour fix, which `tcpf`
+//! uses as anchors (global start, re-seeding and a weak extra likelihood;
+//! docs/tcpf.md, "Anchors").
+//!
+//! Why beside the radio map: a scan vector says as much by what it does
+//! *not* hear as by what it hears (an AP heard at -50 dBm on the survey
+//! and silent now rules a place out), and it keeps every transmitter of
+//! the survey, not only those with a fitted model. The RSSI distance is
+//! the RMS difference over the union of the two vectors' transmitters of
+//! the radios in use, a transmitter missing on one side counting as
+//! `missing_dbm`.
+//!
+//! Pure: built from events, queried with vectors; its file form lives in
+//! [`super::radio_map_file`] (the `reference_scans` section).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::model::TxKind;
+use super::survey::{RadioSample, SurveyCounts, SurveyOptions, survey_samples};
+use crate::Vec2;
+use crate::bounds::check_count;
+use crate::events::LogEvent;
+use crate::{Error, Result};
+
+/// Most reference scans one set holds (a survey of ~55 h at 1 per s).
+pub const MAX_REFERENCE_SCANS: usize = 200_000;
+/// Most distinct transmitters.
+pub const MAX_REFERENCE_IDS: usize = 100_000;
+/// Most transmitters in one reference scan.
+pub const MAX_SCAN_TRANSMITTERS: usize = 1024;
+
+/// How reference scans are cut from survey walks.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ReferenceScanConfig {
+    /// Length of the trailing window of one scan vector, s (the engine's
+    /// query window is the same).
+    pub window_s: f64,
+    /// One reference scan every this many seconds of a walk.
+    pub step_s: f64,
+    /// A reference scan needs this many transmitters.
+    pub min_transmitters: usize,
+    /// RSSI of a transmitter one side did not hear, dBm.
+    pub missing_dbm: f64,
+    /// Readings weaker than this are left out, dBm.
+    pub min_rssi_dbm: f64,
+    /// WiFi results older than this against their scan are left out, s.
+    pub wifi_max_age_s: f64,
+    /// No position across truth points further apart than this, s.
+    pub max_truth_gap_s: f64,
+}
+
+impl Default for ReferenceScanConfig {
+    fn default() -> Self {
+        ReferenceScanConfig {
+            window_s: 4.0,
+            step_s: 1.0,
+            min_transmitters: 3,
+            missing_dbm: -100.0,
+            min_rssi_dbm: -100.0,
+            wifi_max_age_s: 4.0,
+            max_truth_gap_s: 30.0,
+        }
+    }
+}
+
+impl ReferenceScanConfig {
+    /// Checks every field, naming the bad one under `prefix`.
+    pub fn validate(&self, prefix: &str) -> Result<()> {
+        use crate::bounds::check_range;
+        for (f, v, lo, hi) in [
+            ("window_s", self.window_s, 0.1, 120.0),
+            ("step_s", self.step_s, 0.1, 120.0),
+            ("missing_dbm", self.missing_dbm, -200.0, 0.0),
+            ("min_rssi_dbm", self.min_rssi_dbm, -200.0, 0.0),
+            ("wifi_max_age_s", self.wifi_max_age_s, 0.0, 600.0),
+            ("max_truth_gap_s", self.max_truth_gap_s, 0.1, 3600.0),
+        ] {
+            check_range(&format!("{prefix}.{f}"), v, lo, hi)?;
+        }
+        if !(1..=MAX_SCAN_TRANSMITTERS).contains(&self.min_transmitters) {
+            return Err(Error::config(
+                format!("{prefix}.min_transmitters"),
+                format!("must be in 1..={MAX_SCAN_TRANSMITTERS}"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One reference scan.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReferenceScan {
+    pub floor: i32,
+    /// The walker's position at the window's end, MCS metres.
+    pub x_m: f64,
+    pub y_m: f64,
+    /// (transmitter index into `ids`, mean RSSI x 10 dBm), by index.
+    pub tx: Vec<(u32, i16)>,
+}
+
+/// One candidate place of a query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Candidate {
+    pub floor: i32,
+    pub pos: Vec2,
+    /// RMS RSSI difference to the query, dB.
+    pub dist_db: f64,
+}
+
+/// The reference scans of a site.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ReferenceScans {
+    cfg: ReferenceScanConfig,
+    /// Transmitter ids (canonical beacon id / lower-case BSSID) and kinds.
+    ids: Vec<(TxKind, String)>,
+    index: BTreeMap<(TxKind, String), u32>,
+    scans: Vec<ReferenceScan>,
+}
+
+impl ReferenceScans {
+    /// A set from its parts; checks sizes, indices and values (errors name
+    /// the field, under `reference_scans.`).
+    pub fn new(
+        cfg: ReferenceScanConfig,
+        ids: Vec<(TxKind, String)>,
+        scans: Vec<ReferenceScan>,
+    ) -> Result<Self> {
+        cfg.validate("reference_scans.config")?;
+        check_count("reference_scans.ids", ids.len(), 0, MAX_REFERENCE_IDS)?;
+        check_count("reference_scans.scans", scans.len(), 0, MAX_REFERENCE_SCANS)?;
+        for (i, s) in scans.iter().enumerate() {
+            let bad = |f: &str, m: String| {
+                Err(Error::Input(format!(
+                    "radio map: field `reference_scans.scans[{i}].{f}`: {m}"
+                )))
+            };
+            if !(s.x_m.is_finite() && s.y_m.is_finite()) {
+                return bad("x_m", "position must be finite".into());
+            }
+            if s.tx.len() > MAX_SCAN_TRANSMITTERS {
+                return bad("tx", format!("more than {MAX_SCAN_TRANSMITTERS} entries"));
+            }
+            for w in s.tx.windows(2) {
+                if w[0].0 >= w[1].0 {
+                    return bad("tx", "indices must be strictly increasing".into());
+                }
+            }
+            if let Some(&(j, _)) = s.tx.iter().find(|(j, _)| *j as usize >= ids.len()) {
+                return bad("tx", format!("index {j} is not below {} ids", ids.len()));
+            }
+        }
+        let mut index = BTreeMap::new();
+        for (i, id) in ids.iter().enumerate() {
+            if index.insert(id.clone(), i as u32).is_some() {
+                return Err(Error::Input(format!(
+                    "radio map: field `reference_scans.ids[{i}]`: `{}` is listed twice",
+                    id.1
+                )));
+            }
+        }
+        Ok(ReferenceScans {
+            cfg,
+            ids,
+            index,
+            scans,
+        })
+    }
+
+    pub fn config(&self) -> &ReferenceScanConfig {
+        &self.cfg
+    }
+
+    pub fn ids(&self) -> &[(TxKind, String)] {
+        &self.ids
+    }
+
+    pub fn scans(&self) -> &[ReferenceScan] {
+        &self.scans
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.scans.is_empty()
+    }
+
+    /// Index of a transmitter by canonical id (beacon ids as
+    /// [`crate::ble::beacon_id::normalize_beacon_id`] gives them, BSSIDs
+    /// lower-case).
+    pub fn index_of(&self, kind: TxKind, canonical_id: &str) -> Option<u32> {
+        self.index.get(&(kind, canonical_id.to_string())).copied()
+    }
+
+    /// Kind of transmitter `j`.
+    pub fn kind(&self, j: u32) -> Option<TxKind> {
+        self.ids.get(j as usize).map(|x| x.0)
+    }
+
+    /// The `k` reference scans closest to `query` ((index, RSSI dBm),
+    /// sorted by index, one entry per transmitter), comparing only the
+    /// transmitters of the radios in `use_ble` / `use_wifi`; a scan
+    /// counts only if it shares at least one heard transmitter. Sorted by
+    /// distance (ties: scan order).
+    pub fn query(
+        &self,
+        query: &[(u32, f64)],
+        use_ble: bool,
+        use_wifi: bool,
+        k: usize,
+    ) -> Vec<Candidate> {
+        let used = |j: u32| match self.kind(j) {
+            Some(TxKind::Ble) => use_ble,
+            Some(TxKind::Wifi) => use_wifi,
+            None => false,
+        };
+        let m = self.cfg.missing_dbm;
+        let q: Vec<(u32, f64)> = query
+            .iter()
+            .filter(|(j, r)| used(*j) && r.is_finite())
+            .map(|&(j, r)| (j, r.max(m)))
+            .collect();
+        if q.is_empty() || k == 0 {
+            return Vec::new();
+        }
+        let q_only: f64 = q.iter().map(|(_, r)| (r - m) * (r - m)).sum();
+        let mut out: Vec<(f64, usize)> = Vec::new();
+        for (si, s) in self.scans.iter().enumerate() {
+            // start from "nothing shared" and correct the shared entries
+            let (mut sum, mut n, mut shared) = (q_only, q.len(), 0usize);
+            let mut qi = 0;
+            for &(j, r10) in &s.tx {
+                if !used(j) {
+                    continue;
+                }
+                let r = (f64::from(r10) / 10.0).max(m);
+                while qi < q.len() && q[qi].0 < j {
+                    qi += 1;
+                }
+                if qi < q.len() && q[qi].0 == j {
+                    let a = q[qi].1;
+                    sum += (a - r) * (a - r) - (a - m) * (a - m);
+                    shared += 1;
+                } else {
+                    sum += (r - m) * (r - m);
+                    n += 1;
+                }
+            }
+            if shared > 0 {
+                out.push(((sum.max(0.0) / n as f64).sqrt(), si));
+            }
+        }
+        let k = k.min(out.len());
+        if k == 0 {
+            return Vec::new();
+        }
+        let cmp = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        if k < out.len() {
+            out.select_nth_unstable_by(k - 1, cmp);
+            out.truncate(k);
+        }
+        out.sort_by(cmp);
+        out.into_iter()
+            .map(|(d, si)| {
+                let s = &self.scans[si];
+                Candidate {
+                    floor: s.floor,
+                    pos: Vec2::new(s.x_m, s.y_m),
+                    dist_db: d,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Builds [`ReferenceScans`] from survey logs with truth, one log at a time.
+#[derive(Debug, Clone)]
+pub struct ReferenceScanBuilder {
+    cfg: ReferenceScanConfig,
+    default_floor: Option<i32>,
+    ids: Vec<(TxKind, String)>,
+    index: BTreeMap<(TxKind, String), u32>,
+    scans: Vec<ReferenceScan>,
+    /// Scans left out: too few transmitters, a floor change inside the
+    /// window, or over the size bounds.
+    pub skipped: usize,
+}
+
+impl ReferenceScanBuilder {
+    /// `default_floor`: the floor of truth points without one (single-floor
+    /// sites).
+    pub fn new(cfg: &ReferenceScanConfig, default_floor: Option<i32>) -> Result<Self> {
+        cfg.validate("reference_scans")?;
+        Ok(ReferenceScanBuilder {
+            cfg: *cfg,
+            default_floor,
+            ids: Vec::new(),
+            index: BTreeMap::new(),
+            scans: Vec::new(),
+            skipped: 0,
+        })
+    }
+
+    /// Adds the reference scans of one log (time-ordered events).
+    pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
+        let opts = SurveyOptions {
+            default_floor: self.default_floor,
+            max_truth_gap_ns: (self.cfg.max_truth_gap_s * 1e9) as i64,
+            wifi_max_age_ns: (self.cfg.wifi_max_age_s * 1e9) as i64,
+            min_rssi_dbm: self.cfg.min_rssi_dbm,
+        };
+        let mut samples: Vec<RadioSample> = Vec::new();
+        let counts = survey_samples(events, &opts, |s| samples.push(s));
+        samples.sort_by_key(|s| s.t_ns);
+        let (Some(first), Some(last)) = (samples.first(), samples.last()) else {
+            return counts;
+        };
+        let (t0, t1) = (first.t_ns, last.t_ns);
+        let win = (self.cfg.window_s * 1e9) as i64;
+        let step = ((self.cfg.step_s * 1e9) as i64).max(1);
+        let mut end = t0 + win.min(t1 - t0);
+        let (mut lo, mut hi) = (0usize, 0usize);
+        while end <= t1 {
+            while hi < samples.len() && samples[hi].t_ns <= end {
+                hi += 1;
+            }
+            while lo < hi && samples[lo].t_ns <= end - win {
+                lo += 1;
+            }
+            self.push_window(&samples[lo..hi]);
+            end += step;
+        }
+        counts
+    }
+
+    fn push_window(&mut self, w: &[RadioSample]) {
+        let Some(at) = w.last() else { return };
+        if w.iter().any(|s| s.floor != at.floor) || self.scans.len() >= MAX_REFERENCE_SCANS {
+            self.skipped += 1;
+            return;
+        }
+        let mut acc: BTreeMap<u32, (f64, usize)> = BTreeMap::new();
+        for s in w {
+            let key = (s.kind, s.id.clone());
+            let j = match self.index.get(&key) {
+                Some(j) => *j,
+                None => {
+                    if self.ids.len() >= MAX_REFERENCE_IDS {
+                        continue;
+                    }
+                    let j = self.ids.len() as u32;
+                    self.ids.push(key.clone());
+                    self.index.insert(key, j);
+                    j
+                }
+            };
+            let e = acc.entry(j).or_insert((0.0, 0));
+            e.0 += s.rssi_dbm;
+            e.1 += 1;
+        }
+        if acc.len() < self.cfg.min_transmitters {
+            self.skipped += 1;
+            return;
+        }
+        let mut tx: Vec<(u32, i16)> = acc
+            .into_iter()
+            .map(|(j, (s, n))| (j, (s / n as f64 * 10.0).round().clamp(-2000.0, 0.0) as i16))
+            .collect();
+        if tx.len() > MAX_SCAN_TRANSMITTERS {
+            // keep the strongest
+            tx.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+            tx.truncate(MAX_SCAN_TRANSMITTERS);
+            tx.sort_by_key(|x| x.0);
+        }
+        self.scans.push(ReferenceScan {
+            floor: at.floor,
+            x_m: (at.pos.x * 100.0).round() / 100.0,
+            y_m: (at.pos.y * 100.0).round() / 100.0,
+            tx,
+        });
+    }
+
+    /// The set.
+    pub fn finish(self) -> Result<ReferenceScans> {
+        ReferenceScans::new(self.cfg, self.ids, self.scans)
+    }
+}
+
+/// A phone's trailing window of readings, as the reference scans were cut:
+/// readings of the last `window_s`, mean per transmitter.
+#[derive(Debug, Clone, Default)]
+pub struct ScanTrail {
+    readings: std::collections::VecDeque<(i64, u32, f64)>,
+    /// Reference-scan index of each beacon id as heard (cached).
+    ble_ids: BTreeMap<String, Option<u32>>,
+}
+
+/// Most readings a trail keeps (a flood of adverts cannot grow it).
+const MAX_TRAIL: usize = 20_000;
+/// Most beacon ids whose index is cached.
+const MAX_ID_CACHE: usize = 4096;
+
+impl ScanTrail {
+    /// A BLE advert of beacon `raw_id` (any spelling), if `scans` knows it.
+    pub fn push_ble(&mut self, scans: &ReferenceScans, raw_id: &str, t_ns: i64, rssi_dbm: f64) {
+        let j = match self.ble_ids.get(raw_id) {
+            Some(j) => *j,
+            None => {
+                let j = crate::ble::beacon_id::normalize_beacon_id(raw_id)
+                    .ok()
+                    .and_then(|id| scans.index_of(TxKind::Ble, &id));
+                if self.ble_ids.len() < MAX_ID_CACHE {
+                    self.ble_ids.insert(raw_id.to_string(), j);
+                }
+                j
+            }
+        };
+        if let Some(j) = j {
+            self.push(t_ns, j, rssi_dbm);
+        }
+    }
+
+    /// A WiFi result of `bssid` heard at `t_ns`, if `scans` knows it.
+    pub fn push_wifi(&mut self, scans: &ReferenceScans, bssid: &str, t_ns: i64, rssi_dbm: f64) {
+        if let Some(j) = scans.index_of(TxKind::Wifi, &bssid.to_ascii_lowercase()) {
+            self.push(t_ns, j, rssi_dbm);
+        }
+    }
+
+    /// One reading of transmitter `j` at `t_ns`.
+    pub fn push(&mut self, t_ns: i64, j: u32, rssi_dbm: f64) {
+        if !rssi_dbm.is_finite() {
+            return;
+        }
+        if self.readings.len() >= MAX_TRAIL {
+            self.readings.pop_front();
+        }
+        self.readings.push_back((t_ns, j, rssi_dbm));
+    }
+
+    /// The mean per transmitter of the readings in (now - window, now],
+    /// minus `offset_db`, sorted by index; older readings are dropped.
+    pub fn vector(&mut self, now_ns: i64, window_s: f64, offset_db: f64) -> Vec<(u32, f64)> {
+        let from = now_ns - (window_s * 1e9) as i64;
+        while self.readings.front().is_some_and(|r| r.0 <= from) {
+            self.readings.pop_front();
+        }
+        let mut acc: BTreeMap<u32, (f64, usize)> = BTreeMap::new();
+        for &(t, j, r) in &self.readings {
+            if t <= now_ns {
+                let e = acc.entry(j).or_insert((0.0, 0));
+                e.0 += r;
+                e.1 += 1;
+            }
+        }
+        acc.into_iter()
+            .map(|(j, (s, n))| (j, s / n as f64 - offset_db))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::events::{BleObservation, TruthPoint, WifiResult, WifiScan};
+
+    fn set(scans: Vec<ReferenceScan>, n_ids: usize) -> ReferenceScans {
+        let ids = (0..n_ids)
+            .map(|i| (TxKind::Wifi, format!("0a:00:00:00:00:{i:02x}")))
+            .collect();
+        ReferenceScans::new(ReferenceScanConfig::default(), ids, scans).unwrap()
+    }
+
+    fn scan(x: f64, tx: &[(u32, f64)]) -> ReferenceScan {
+        ReferenceScan {
+            floor: 0,
+            x_m: x,
+            y_m: 0.0,
+            tx: tx.iter().map(|&(j, r)| (j, (r * 10.0) as i16)).collect(),
+        }
+    }
+
+    #[test]
+    fn the_closest_scan_wins_and_silence_counts() {
+        let s = set(
+            vec![
+                scan(0.0, &[(0, -50.0), (1, -80.0)]),
+                scan(10.0, &[(0, -80.0), (1, -50.0)]),
+                // hears 0 like the query but also 2 loudly, which the query does not
+                scan(20.0, &[(0, -52.0), (1, -80.0), (2, -45.0)]),
+            ],
+            3,
+        );
+        let c = s.query(&[(0, -51.0), (1, -79.0)], false, true, 3);
+        assert_eq!(c.len(), 3);
+        assert_eq!(c[0].pos.x, 0.0);
+        // x = 20 matches both heard APs within 2 dB but its loud third AP
+        // is silent now: it ranks below x = 10, where both are 29 dB off
+        assert_eq!(c[1].pos.x, 10.0, "{c:?}");
+        assert_eq!(c[2].pos.x, 20.0, "{c:?}");
+        assert!(c[2].dist_db > 30.0, "a loud AP not heard now is far: {c:?}");
+        // distance by hand: RMS of (1, 1) dB
+        assert!((c[0].dist_db - 1.0).abs() < 1e-9);
+        // the radio not in use is ignored: no WiFi, no candidate
+        assert!(s.query(&[(0, -51.0)], true, false, 3).is_empty());
+        // nothing shared: no candidate
+        assert!(s.query(&[(2, -51.0)], false, true, 3).len() == 1);
+    }
+
+    #[test]
+    fn bad_sets_are_refused_with_the_field() {
+        let ids = vec![(TxKind::Ble, "a".to_string())];
+        let bad = ReferenceScans::new(
+            ReferenceScanConfig::default(),
+            ids.clone(),
+            vec![scan(0.0, &[(3, -60.0)])],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(bad.contains("reference_scans.scans[0].tx"), "{bad}");
+        let bad = ReferenceScans::new(
+            ReferenceScanConfig::default(),
+            ids,
+            vec![ReferenceScan {
+                floor: 0,
+                x_m: f64::NAN,
+                y_m: 0.0,
+                tx: vec![],
+            }],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(bad.contains("scans[0].x_m"), "{bad}");
+    }
+
+    #[test]
+    fn survey_walk_gives_one_scan_per_step_at_the_window_end() {
+        let mut ev = vec![
+            LogEvent::Truth(TruthPoint {
+                t_ns: 0,
+                x_m: 0.0,
+                y_m: 0.0,
+                floor: None,
+            }),
+            LogEvent::Truth(TruthPoint {
+                t_ns: 20_000_000_000,
+                x_m: 20.0,
+                y_m: 0.0,
+                floor: None,
+            }),
+        ];
+        for i in 0..20 {
+            let t = i * 1_000_000_000 + 500_000_000;
+            ev.push(LogEvent::Ble(BleObservation {
+                t_ns: t,
+                beacon_id: "MAC:AA:BB:CC:DD:EE:01".into(),
+                rssi_dbm: -60.0 - i as f64,
+                tx_power_dbm: None,
+            }));
+            ev.push(LogEvent::Wifi(WifiScan {
+                t_ns: t,
+                results: vec![
+                    WifiResult {
+                        bssid: "0A:00:00:00:00:01".into(),
+                        rssi_dbm: -70.0,
+                        freq_mhz: 2412,
+                        seen_t_ns: t,
+                    },
+                    WifiResult {
+                        bssid: "0A:00:00:00:00:02".into(),
+                        rssi_dbm: -75.0,
+                        freq_mhz: 2412,
+                        seen_t_ns: t,
+                    },
+                ],
+            }));
+        }
+        ev.sort_by_key(|e| e.t_ns());
+        let cfg = ReferenceScanConfig {
+            window_s: 2.0,
+            ..Default::default()
+        };
+        let mut b = ReferenceScanBuilder::new(&cfg, Some(0)).unwrap();
+        b.add_log(&ev);
+        let s = b.finish().unwrap();
+        assert_eq!(s.ids().len(), 3);
+        assert!(s.scans().len() >= 15, "{}", s.scans().len());
+        // the first scan ends 2 s after the first reading, at x = 2.5
+        let f = &s.scans()[0];
+        assert!((f.x_m - 2.5).abs() < 1e-6, "{f:?}");
+        // mean of the adverts at 1.5 s (-61) and 2.5 s (-62): the window
+        // is (end - 2 s, end]
+        let ble = s.ids().iter().position(|(k, _)| *k == TxKind::Ble).unwrap() as u32;
+        let r = f.tx.iter().find(|(j, _)| *j == ble).unwrap().1;
+        assert_eq!(r, -615, "{f:?}");
+        // querying with the trail of a walker at x = 10.5 finds x = 10.5
+        let mut trail = ScanTrail::default();
+        for i in 8..=10 {
+            let t = i * 1_000_000_000 + 500_000_000;
+            trail.push(t, ble, -60.0 - i as f64);
+            for (bssid, r) in [("0a:00:00:00:00:01", -70.0), ("0a:00:00:00:00:02", -75.0)] {
+                trail.push(t, s.index_of(TxKind::Wifi, bssid).unwrap(), r);
+            }
+        }
+        let q = trail.vector(10_500_000_000, 2.0, 0.0);
+        assert_eq!(q.len(), 3);
+        let c = s.query(&q, true, true, 1);
+        assert!((c[0].pos.x - 10.5).abs() < 1.01, "{c:?}");
+    }
+}

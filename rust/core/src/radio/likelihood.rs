@@ -183,6 +183,87 @@ pub fn log_likelihood(
     s
 }
 
+/// The per-particle work of a radio update over a whole cloud: the
+/// [`log_likelihood`] of every particle (the same values), each heard
+/// transmitter's expected (mean, sd) computed once per particle through
+/// [`RadioModel::expected_many`] and kept for the residuals
+/// ([`CloudLikelihood::weighted_expected`]). Reuse one across updates to
+/// keep its buffers.
+#[derive(Debug, Clone, Default)]
+pub struct CloudLikelihood {
+    /// Particles of the last [`CloudLikelihood::evaluate`].
+    n: usize,
+    /// Per measurement: whether the model knows its transmitter.
+    known: Vec<bool>,
+    /// Expected mean and sd, measurement-major: `[k * n + i]`.
+    mean: Vec<f64>,
+    sd: Vec<f64>,
+}
+
+impl CloudLikelihood {
+    /// Untempered log-likelihood of `meas` at every particle of `ps` on
+    /// `floor` with phone offset `offset_db` into `out` (cleared first),
+    /// as [`log_likelihood`] point by point.
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate(
+        &mut self,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offset_db: f64,
+        out: &mut Vec<f64>,
+    ) {
+        let n = ps.len();
+        self.n = n;
+        self.known.clear();
+        self.mean.resize(meas.len() * n, 0.0);
+        self.sd.resize(meas.len() * n, 0.0);
+        out.clear();
+        out.resize(n, 0.0);
+        for (k, m) in meas.iter().enumerate() {
+            let mean = &mut self.mean[k * n..(k + 1) * n];
+            let sd = &mut self.sd[k * n..(k + 1) * n];
+            let known = model.expected_many(m.tx, floor, ps, mean, sd);
+            self.known.push(known);
+            if !known {
+                continue;
+            }
+            let r = m.rssi_dbm - offset_db;
+            // ln sd only when sd changes (constant per transmitter for a
+            // path-loss model, per cell for a radio map)
+            let (mut last_sd, mut ln_sd) = (f64::NAN, f64::NAN);
+            for ((s, &mu), &sd) in out.iter_mut().zip(mean.iter()).zip(sd.iter()) {
+                if sd != last_sd {
+                    (last_sd, ln_sd) = (sd, sd.ln());
+                }
+                let z = (r - mu) / sd;
+                *s += cfg.log_t(z) - ln_sd;
+            }
+        }
+    }
+
+    /// For the `k`-th measurement of the last
+    /// [`CloudLikelihood::evaluate`]: (sum of w * mean, sum of w * sd, sum
+    /// of w) over the particles with weights `weights` (same order and
+    /// length); `None` when the model did not know the transmitter.
+    pub fn weighted_expected(&self, k: usize, weights: &[f64]) -> Option<(f64, f64, f64)> {
+        if !self.known.get(k).copied().unwrap_or(false) {
+            return None;
+        }
+        let n = self.n;
+        let (mean, sd) = (&self.mean[k * n..(k + 1) * n], &self.sd[k * n..(k + 1) * n]);
+        let (mut mu, mut s, mut wsum) = (0.0, 0.0, 0.0);
+        for ((w, a), b) in weights.iter().zip(mean).zip(sd) {
+            mu += w * a;
+            s += w * b;
+            wsum += w;
+        }
+        Some((mu, s, wsum))
+    }
+}
+
 /// Log-likelihood at `p` of not having heard the transmitters `missing`
 /// (indices in `model`, each with its radio's sensitivity) with phone
 /// offset `offset_db`, untempered: sum of `miss_weight` * ln P(miss).

@@ -83,6 +83,27 @@ pub trait RadioModel: Send + Sync {
     /// (mean dBm, standard deviation dB) of transmitter `tx` for a phone at
     /// `p` on floor `floor`; `None` for an unknown index.
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)>;
+    /// [`RadioModel::expected`] of transmitter `tx` at every point of `ps`
+    /// into `mean` and `sd` (each at least `ps.len()` long); `false` (the
+    /// outputs unspecified) for an unknown index. The same values as
+    /// `expected` point by point; models override it to hoist the
+    /// per-transmitter work out of the loop over particles.
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
+            let Some((a, b)) = self.expected(tx, floor, *p) else {
+                return false;
+            };
+            (*m, *s) = (a, b);
+        }
+        true
+    }
     /// Whether the model was learned per floor (a radio map), so that its
     /// likelihood can tell floors apart; a path-loss model with one
     /// attenuation per floor cannot (APs carry through floors).
@@ -226,6 +247,65 @@ impl RadioModel for PathLossModel {
             pr.other_floor_sd_db,
         ))
     }
+
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        let Some(t) = self.tx.get(tx) else {
+            return false;
+        };
+        let pr = &self.params;
+        let sd0 = match t.kind {
+            TxKind::Ble => pr.ble_sd_db,
+            TxKind::Wifi => pr.wifi_sd_db,
+        };
+        pathloss_many(
+            t,
+            ps,
+            pr.min_range_m,
+            sd0,
+            self.floors_apart(floor, t.floor),
+            pr.floor_loss_db,
+            pr.other_floor_sd_db,
+            mean,
+            sd,
+        );
+        true
+    }
+}
+
+/// [`pathloss_mean`] of `t` at every point of `ps` with spread `sd0`, both
+/// through [`across_floors`] for `apart` floors: `mean` and `sd` (at least
+/// `ps.len()` long) point by point as the one-point functions give them.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pathloss_many(
+    t: &Transmitter,
+    ps: &[Vec2],
+    min_range_m: f64,
+    sd0: f64,
+    apart: i32,
+    loss_db: f64,
+    extra_sd_db: f64,
+    mean: &mut [f64],
+    sd: &mut [f64],
+) {
+    let (_, s) = across_floors((0.0, sd0), apart, loss_db, extra_sd_db);
+    let loss = if apart > 0 {
+        loss_db * f64::from(apart)
+    } else {
+        0.0
+    };
+    for (p, m) in ps.iter().zip(mean.iter_mut()) {
+        let mu = pathloss_mean(t, *p, min_range_m);
+        *m = if apart > 0 { mu - loss } else { mu };
+    }
+    let n = ps.len().min(sd.len());
+    sd[..n].fill(s);
 }
 
 #[cfg(test)]

@@ -273,6 +273,28 @@ impl RadioModel for RadioMap {
         }
         self.fallback_expected(tx, floor, p)
     }
+
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        let (Some(t), Some(e)) = (self.tx.get(tx), self.entries.get(tx)) else {
+            return false;
+        };
+        let grid = e.grids.iter().find(|g| g.floor == floor);
+        let apart = self.floors_apart(floor, t.floor);
+        let fb = &self.fallback;
+        for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
+            (*m, *s) = grid
+                .and_then(|g| g.sample(*p))
+                .unwrap_or_else(|| fallback_at(t, e.has_pathloss, fb, apart, *p));
+        }
+        true
+    }
 }
 
 #[cfg(test)]

@@ -18,6 +18,7 @@
 //!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
 //!   [`radio_map_file`].
 
+pub mod fast_ln;
 pub mod likelihood;
 pub mod model;
 pub mod offset;

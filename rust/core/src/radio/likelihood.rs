@@ -13,6 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::fast_ln::fast_ln;
 use super::model::RadioModel;
 use crate::{Result, Vec2};
 
@@ -183,6 +184,141 @@ pub fn log_likelihood(
     s
 }
 
+/// The per-particle work of a radio update over a whole cloud: the
+/// [`log_likelihood`] of every particle (the same values), each heard
+/// transmitter's expected (mean, sd) computed once per particle through
+/// [`RadioModel::expected_many`] and kept for the residuals
+/// ([`CloudLikelihood::weighted_expected`]). Reuse one across updates to
+/// keep its buffers.
+#[derive(Debug, Clone, Default)]
+pub struct CloudLikelihood {
+    /// Particles of the last [`CloudLikelihood::evaluate`].
+    n: usize,
+    /// Per measurement: whether the model knows its transmitter.
+    known: Vec<bool>,
+    /// Expected mean and sd, measurement-major: `[k * n + i]`.
+    mean: Vec<f64>,
+    sd: Vec<f64>,
+    /// Per particle: prod (1 + z^2/nu) and prod sd of the transmitters
+    /// not yet in the sum.
+    prod: Vec<f64>,
+    sd_prod: Vec<f64>,
+}
+
+/// Transmitters per product in [`CloudLikelihood::evaluate`]: a factor
+/// 1 + z^2/nu overflows 8 at a time only for |z| > 1e19.
+pub const PRODUCT_TERMS: usize = 8;
+
+impl CloudLikelihood {
+    /// Untempered log-likelihood of `meas` at every particle of `ps` on
+    /// `floor` with phone offset `offset_db` into `out` (cleared first):
+    /// [`log_likelihood`] point by point, computed per transmitter over
+    /// the cloud as -(nu+1)/2 ln prod(1 + z^2/nu) - ln prod(sd) (one
+    /// logarithm per particle and group of [`PRODUCT_TERMS`] transmitters,
+    /// [`fast_ln`]; ln sd once for a transmitter whose spread is the same
+    /// at every particle) and the model's [`RadioModel::expected_many`].
+    /// Within 1e-6 of `log_likelihood` (unit test).
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate(
+        &mut self,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offset_db: f64,
+        out: &mut Vec<f64>,
+    ) {
+        let n = ps.len();
+        self.n = n;
+        self.known.clear();
+        self.mean.resize(meas.len() * n, 0.0);
+        self.sd.resize(meas.len() * n, 0.0);
+        self.prod.clear();
+        self.prod.resize(n, 1.0);
+        self.sd_prod.clear();
+        self.sd_prod.resize(n, 1.0);
+        out.clear();
+        out.resize(n, 0.0);
+        let half_nu1 = 0.5 * (cfg.student_nu + 1.0);
+        let inv_nu = 1.0 / cfg.student_nu;
+        let (mut terms, mut sd_varies, mut ln_sd_sum) = (0usize, false, 0.0);
+        for (k, m) in meas.iter().enumerate() {
+            let mean = &mut self.mean[k * n..(k + 1) * n];
+            let sd = &mut self.sd[k * n..(k + 1) * n];
+            let known = model.expected_many(m.tx, floor, ps, mean, sd);
+            self.known.push(known);
+            if !known || n == 0 {
+                continue;
+            }
+            let r = m.rssi_dbm - offset_db;
+            let sd0 = sd[0];
+            if sd.iter().all(|s| *s == sd0) {
+                let inv = 1.0 / sd0;
+                ln_sd_sum += sd0.ln();
+                for (q, mu) in self.prod.iter_mut().zip(mean.iter()) {
+                    let z = (r - mu) * inv;
+                    *q *= 1.0 + z * z * inv_nu;
+                }
+            } else {
+                sd_varies = true;
+                let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
+                for ((q, qs), (mu, s)) in it.zip(mean.iter().zip(sd.iter())) {
+                    let z = (r - mu) / s;
+                    *q *= 1.0 + z * z * inv_nu;
+                    *qs *= s;
+                }
+            }
+            terms += 1;
+            if terms == PRODUCT_TERMS {
+                self.flush(out, half_nu1, sd_varies);
+                (terms, sd_varies) = (0, false);
+            }
+        }
+        if terms > 0 {
+            self.flush(out, half_nu1, sd_varies);
+        }
+        if ln_sd_sum != 0.0 {
+            out.iter_mut().for_each(|u| *u -= ln_sd_sum);
+        }
+    }
+
+    /// Moves the products into `out` and resets them.
+    fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool) {
+        if sd_varies {
+            let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
+            for (u, (q, qs)) in out.iter_mut().zip(it) {
+                *u -= half_nu1 * fast_ln(*q) + fast_ln(*qs);
+                (*q, *qs) = (1.0, 1.0);
+            }
+        } else {
+            for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
+                *u -= half_nu1 * fast_ln(*q);
+                *q = 1.0;
+            }
+        }
+    }
+
+    /// For the `k`-th measurement of the last
+    /// [`CloudLikelihood::evaluate`]: (sum of w * mean, sum of w * sd, sum
+    /// of w) over the particles with weights `weights` (same order and
+    /// length); `None` when the model did not know the transmitter.
+    pub fn weighted_expected(&self, k: usize, weights: &[f64]) -> Option<(f64, f64, f64)> {
+        if !self.known.get(k).copied().unwrap_or(false) {
+            return None;
+        }
+        let n = self.n;
+        let (mean, sd) = (&self.mean[k * n..(k + 1) * n], &self.sd[k * n..(k + 1) * n]);
+        let (mut mu, mut s, mut wsum) = (0.0, 0.0, 0.0);
+        for ((w, a), b) in weights.iter().zip(mean).zip(sd) {
+            mu += w * a;
+            s += w * b;
+            wsum += w;
+        }
+        Some((mu, s, wsum))
+    }
+}
+
 /// Log-likelihood at `p` of not having heard the transmitters `missing`
 /// (indices in `model`, each with its radio's sensitivity) with phone
 /// offset `offset_db`, untempered: sum of `miss_weight` * ln P(miss).
@@ -299,6 +435,106 @@ mod tests {
         // a tight prior pulls it back towards 0
         let (o2, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 1.0);
         assert!(o2 > -8.0 && o2 < 0.0);
+    }
+
+    /// A model whose spread varies with the position (as a radio map's),
+    /// through the trait's default `expected_many`.
+    struct Wavy(PathLossModel);
+
+    impl RadioModel for Wavy {
+        fn transmitters(&self) -> &[crate::radio::model::Transmitter] {
+            self.0.transmitters()
+        }
+        fn lookup(&self, kind: crate::radio::model::TxKind, id: &str) -> Option<usize> {
+            self.0.lookup(kind, id)
+        }
+        fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+            let (mu, _) = self.0.expected(tx, floor, p)?;
+            Some((
+                mu,
+                3.0 + 2.0 * (0.7 * p.x + 0.3 * p.y + tx as f64).sin().abs(),
+            ))
+        }
+    }
+
+    #[test]
+    fn the_cloud_likelihood_is_the_per_particle_one() {
+        let pl = PathLossParams {
+            ble_sd_db: 6.0,
+            wifi_sd_db: 5.0,
+            floor_loss_db: 15.0,
+            other_floor_sd_db: 4.0,
+            min_range_m: 0.5,
+            phone_height_m: 1.2,
+        };
+        // 20 transmitters (more than PRODUCT_TERMS), BLE and WiFi
+        let bs: Vec<(f64, f64)> = (0..20)
+            .map(|k| (1.0 + (k % 5) as f64 * 4.5, 1.0 + (k / 5) as f64 * 5.5))
+            .collect();
+        let curve = PathLoss {
+            rssi_1m_dbm: -60.0,
+            exponent: 2.3,
+        };
+        let site = testkit::beacon_site("cloud", vec![testkit::open_map(20, 20)], &bs, curve);
+        let m = PathLossModel::for_site(&site, pl);
+        let wavy = Wavy(m.clone());
+        let ps: Vec<Vec2> = (0..400)
+            .map(|i| Vec2::new((i % 20) as f64 * 1.03, (i / 20) as f64 * 0.97))
+            .chain(bs.iter().map(|b| Vec2::new(b.0, b.1)))
+            .collect();
+        let cfg = LikelihoodConfig::default();
+        let mut cloud = CloudLikelihood::default();
+        let mut out = Vec::new();
+        for (k, model) in [&m as &dyn RadioModel, &wavy].into_iter().enumerate() {
+            for n_heard in [1usize, 7, 8, 9, 20] {
+                // heard at (7, 11) with an offset, one 25 dB outlier, one
+                // unknown transmitter index
+                let mut meas: Vec<Measurement> = (0..n_heard)
+                    .map(|tx| Measurement {
+                        tx,
+                        rssi_dbm: model.expected(tx, 0, Vec2::new(7.0, 11.0)).unwrap().0 - 5.0
+                            + (tx as f64 * 1.7).sin() * 4.0,
+                        readings: 1,
+                    })
+                    .collect();
+                meas[0].rssi_dbm -= 25.0;
+                meas.push(Measurement {
+                    tx: 999,
+                    rssi_dbm: -70.0,
+                    readings: 1,
+                });
+                cloud.evaluate(model, &cfg, &meas, 0, &ps, -5.0, &mut out);
+                assert_eq!(out.len(), ps.len());
+                let mut worst: f64 = 0.0;
+                for (p, l) in ps.iter().zip(&out) {
+                    let exact = log_likelihood(model, &cfg, &meas, 0, *p, -5.0);
+                    worst = worst.max((l - exact).abs());
+                }
+                assert!(worst < 1e-6, "model {k}, {n_heard} heard: {worst}");
+                // the residual sums are those of `expected`
+                let w: Vec<f64> = (0..ps.len()).map(|i| 1.0 + (i % 3) as f64).collect();
+                for (j, mm) in meas.iter().enumerate() {
+                    let got = cloud.weighted_expected(j, &w);
+                    if mm.tx == 999 {
+                        assert!(got.is_none());
+                        continue;
+                    }
+                    let (mu, sd, ws) = got.unwrap();
+                    let (mut mu0, mut sd0, mut ws0) = (0.0, 0.0, 0.0);
+                    for (p, wi) in ps.iter().zip(&w) {
+                        let (a, b) = model.expected(mm.tx, 0, *p).unwrap();
+                        (mu0, sd0, ws0) = (mu0 + wi * a, sd0 + wi * b, ws0 + wi);
+                    }
+                    assert!((mu / ws - mu0 / ws0).abs() < 1e-8, "{mu} {mu0}");
+                    assert!((sd / ws - sd0 / ws0).abs() < 1e-9 && ws == ws0);
+                }
+            }
+        }
+        // an empty cloud and no measurement
+        cloud.evaluate(&m, &cfg, &[], 0, &ps, 0.0, &mut out);
+        assert!(out.iter().all(|l| *l == 0.0) && out.len() == ps.len());
+        cloud.evaluate(&m, &cfg, &heard(&m, ps[0], 0.0), 0, &[], 0.0, &mut out);
+        assert!(out.is_empty());
     }
 
     #[test]

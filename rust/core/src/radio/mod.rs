@@ -21,6 +21,7 @@
 //!   and their k-nearest-neighbour query, carried in the radio map file;
 //!   `tcpf` anchors its start and re-seeding on them.
 
+pub mod fast_ln;
 pub mod likelihood;
 pub mod model;
 pub mod offset;

@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use super::fast_ln::ln_normal;
 use crate::Vec2;
 use crate::ble::beacon_id::normalize_beacon_id;
 use crate::ble::pathloss::PathLoss;
@@ -83,6 +84,28 @@ pub trait RadioModel: Send + Sync {
     /// (mean dBm, standard deviation dB) of transmitter `tx` for a phone at
     /// `p` on floor `floor`; `None` for an unknown index.
     fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)>;
+    /// [`RadioModel::expected`] of transmitter `tx` at every point of `ps`
+    /// into `mean` and `sd` (each at least `ps.len()` long); `false` (the
+    /// outputs unspecified) for an unknown index. The values of `expected`
+    /// point by point (within 1e-6 dB: an override may use a faster
+    /// logarithm); models override it to hoist the per-transmitter work out
+    /// of the loop over particles.
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
+            let Some((a, b)) = self.expected(tx, floor, *p) else {
+                return false;
+            };
+            (*m, *s) = (a, b);
+        }
+        true
+    }
     /// Whether the model was learned per floor (a radio map), so that its
     /// likelihood can tell floors apart; a path-loss model with one
     /// attenuation per floor cannot (APs carry through floors).
@@ -230,6 +253,74 @@ impl RadioModel for PathLossModel {
             pr.other_floor_sd_db,
         ))
     }
+
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        let Some(t) = self.tx.get(tx) else {
+            return false;
+        };
+        let pr = &self.params;
+        let sd0 = match t.kind {
+            TxKind::Ble => pr.ble_sd_db,
+            TxKind::Wifi => pr.wifi_sd_db,
+        };
+        pathloss_many(
+            t,
+            ps,
+            pr.min_range_m,
+            sd0,
+            self.floors_apart(floor, t.floor),
+            pr.floor_loss_db,
+            pr.other_floor_sd_db,
+            mean,
+            sd,
+        );
+        true
+    }
+}
+
+/// [`pathloss_mean`] of `t` at every point of `ps` with spread `sd0`, both
+/// through [`across_floors`] for `apart` floors, into `mean` and `sd` (at
+/// least `ps.len()` long): the one-point functions' values within 1e-8 dB
+/// (the logarithm by [`ln_normal`] of the squared range; unit test).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn pathloss_many(
+    t: &Transmitter,
+    ps: &[Vec2],
+    min_range_m: f64,
+    sd0: f64,
+    apart: i32,
+    loss_db: f64,
+    extra_sd_db: f64,
+    mean: &mut [f64],
+    sd: &mut [f64],
+) {
+    let (_, s) = across_floors((0.0, sd0), apart, loss_db, extra_sd_db);
+    let loss = if apart > 0 {
+        loss_db * f64::from(apart)
+    } else {
+        0.0
+    };
+    // R0 - 10 n log10(max(d, min)) as R0 - 5 n / ln 10 * ln max(d^2, min^2)
+    let r0 = t.model.rssi_1m_dbm - loss;
+    let k = 5.0 * t.model.exponent / std::f64::consts::LN_10;
+    let (dz2, min2) = (t.dz_m * t.dz_m, min_range_m * min_range_m);
+    // NaN positions count at the floored range as in `range_m`, infinite
+    // ones at the largest finite range
+    let lo = min2.max(f64::MIN_POSITIVE);
+    for (p, m) in ps.iter().zip(mean.iter_mut()) {
+        let (dx, dy) = (p.x - t.pos.x, p.y - t.pos.y);
+        let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);
+        *m = r0 - k * ln_normal(d2);
+    }
+    let n = ps.len().min(sd.len());
+    sd[..n].fill(s);
 }
 
 #[cfg(test)]
@@ -278,5 +369,37 @@ mod tests {
         assert_eq!(m.lookup(TxKind::Ble, &t.id), Some(i));
         assert_eq!(m.lookup(TxKind::Wifi, &t.id), None);
         assert!(m.expected(m.transmitters().len(), 0, t.pos).is_none());
+    }
+
+    #[test]
+    fn expected_many_is_expected_point_by_point() {
+        let model = PathLoss {
+            rssi_1m_dbm: -58.0,
+            exponent: 2.7,
+        };
+        let maps = vec![testkit::open_map(30, 30), testkit::open_map(30, 30)];
+        let bs = [(5.0, 5.0), (20.0, 12.0), (0.0, 30.0)];
+        let site = testkit::beacon_site("many", maps, &bs, model);
+        let mut pr = params();
+        pr.phone_height_m = 0.2;
+        let m = PathLossModel::for_site(&site, pr);
+        // on and around the beacons (the range floor), near and far
+        let ps: Vec<Vec2> = (0..900)
+            .map(|i| Vec2::new(f64::from(i % 30) * 1.01, f64::from(i / 30) * 0.99))
+            .chain(bs.iter().map(|b| Vec2::new(b.0, b.1)))
+            .chain([Vec2::new(5.3, 5.2), Vec2::new(-400.0, 900.0)])
+            .collect();
+        let (mut mean, mut sd) = (vec![0.0; ps.len()], vec![0.0; ps.len()]);
+        for floor in [0, 1, 7] {
+            for tx in 0..m.transmitters().len() {
+                assert!(m.expected_many(tx, floor, &ps, &mut mean, &mut sd));
+                for (i, p) in ps.iter().enumerate() {
+                    let (a, b) = m.expected(tx, floor, *p).unwrap();
+                    assert!((mean[i] - a).abs() < 1e-8, "{p:?}: {} {a}", mean[i]);
+                    assert_eq!(sd[i], b);
+                }
+            }
+        }
+        assert!(!m.expected_many(3, 0, &ps, &mut mean, &mut sd));
     }
 }

@@ -114,9 +114,10 @@ impl Grid {
         if !(u >= 0.0 && v >= 0.0 && u < self.nx as f64 && v < self.ny as f64) {
             return None;
         }
-        let nearest = self.at(u as usize, v as usize)?;
         let (fu, fv) = (u - 0.5, v - 0.5);
-        let (i0, j0) = (fu.floor().max(0.0) as usize, fv.floor().max(0.0) as usize);
+        // fu, fv >= -0.5: the saturating cast is floor clamped at 0 (and
+        // needs no libm call)
+        let (i0, j0) = (fu as usize, fv as usize);
         let (i1, j1) = ((i0 + 1).min(self.nx - 1), (j0 + 1).min(self.ny - 1));
         let (tx, ty) = (
             (fu - i0 as f64).clamp(0.0, 1.0),
@@ -128,8 +129,9 @@ impl Grid {
             self.at(i0, j1),
             self.at(i1, j1),
         ];
+        // the nearest cell is one of the four corners
         let [Some(a), Some(b), Some(c), Some(d)] = corners else {
-            return Some(nearest);
+            return self.at(u as usize, v as usize);
         };
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
         let mean = lerp(lerp(a.0, b.0, tx), lerp(c.0, d.0, tx), ty);
@@ -284,6 +286,28 @@ impl RadioModel for RadioMap {
             return Some(v);
         }
         self.fallback_expected(tx, floor, p)
+    }
+
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        let (Some(t), Some(e)) = (self.tx.get(tx), self.entries.get(tx)) else {
+            return false;
+        };
+        let grid = e.grids.iter().find(|g| g.floor == floor);
+        let apart = self.floors_apart(floor, t.floor);
+        let fb = &self.fallback;
+        for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
+            (*m, *s) = grid
+                .and_then(|g| g.sample(*p))
+                .unwrap_or_else(|| fallback_at(t, e.has_pathloss, fb, apart, *p));
+        }
+        true
     }
 }
 

@@ -180,6 +180,24 @@ fn falls_back_to_the_site_path_loss_model_far_from_the_walks() {
     let j = m.lookup(TxKind::Ble, &id(1)).unwrap();
     assert!(m.entries()[j].grids.is_empty());
     assert!((m.expected(j, 0, Vec2::new(90.0, 16.0)).unwrap().0 + 55.0).abs() < 1e-9);
+    // the batch query is the point query, on the grid, at its holes and
+    // edges, on the fallback
+    let ps: Vec<Vec2> = (0..3000)
+        .map(|k| {
+            Vec2::new(
+                f64::from(k % 100) * 1.013 - 1.0,
+                f64::from(k / 100) * 1.07 - 0.5,
+            )
+        })
+        .collect();
+    let (mut mean, mut sd) = (vec![0.0; ps.len()], vec![0.0; ps.len()]);
+    for tx in [i, j] {
+        assert!(m.expected_many(tx, 0, &ps, &mut mean, &mut sd));
+        for (k, p) in ps.iter().enumerate() {
+            assert_eq!((mean[k], sd[k]), m.expected(tx, 0, *p).unwrap(), "{p:?}");
+        }
+    }
+    assert!(!m.expected_many(m.transmitters().len(), 0, &ps, &mut mean, &mut sd));
 }
 
 #[test]

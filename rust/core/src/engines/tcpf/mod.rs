@@ -40,7 +40,7 @@ use crate::fusion::ParticleFilter;
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
 use crate::map::FloorMap;
 use crate::pdr::Pdr;
-use crate::radio::likelihood::{log_likelihood, missing_log_likelihood, profiled};
+use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood, profiled};
 use crate::radio::model::PathLossParams;
 use crate::radio::reference_scans::ScanTrail;
 use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWindow, TxKind};
@@ -467,12 +467,15 @@ impl TcpfEngine {
         let alpha0 = lc.alpha(meas.len());
         self.log_l.clear();
         let mut mean_l = 0.0;
-        // untempered log-likelihood per particle first
-        for p in self.pf.particles() {
-            let l = log_likelihood(model.as_ref(), &lc, meas, floor, *p, o);
+        // untempered log-likelihood per particle first; each transmitter's
+        // expected RSSI per particle is kept for the residuals below
+        let mut cloud = CloudLikelihood::default();
+        let ps = self.pf.particles();
+        cloud.evaluate(model.as_ref(), &lc, meas, floor, ps, o, &mut self.log_l);
+        for (u, p) in self.log_l.iter_mut().zip(ps) {
             let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
-            mean_l += (l / m).exp();
-            self.log_l.push(l + miss);
+            mean_l += (*u / m).exp();
+            *u += miss;
         }
         // log of the cloud's mean likelihood tempered by alpha0 (comparable
         // with the surface), by log-sum-exp
@@ -505,17 +508,12 @@ impl TcpfEngine {
         self.log_l = log_l;
         self.counts.radio_updates += 1;
         // residuals of each transmitter averaged over the weighted cloud
-        let (ps, ws) = (self.pf.particles(), self.pf.weights());
+        let ws = self.pf.weights();
         let residuals: Vec<(f64, f64, f64)> = meas
             .iter()
-            .filter_map(|mm| {
-                let (mut mu, mut sd, mut wsum) = (0.0, 0.0, 0.0);
-                for (p, w) in ps.iter().zip(ws) {
-                    let (a, b) = model.expected(mm.tx, floor, *p)?;
-                    mu += w * a;
-                    sd += w * b;
-                    wsum += w;
-                }
+            .enumerate()
+            .filter_map(|(k, mm)| {
+                let (mu, sd, wsum) = cloud.weighted_expected(k, ws)?;
                 (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
             })
             .collect();

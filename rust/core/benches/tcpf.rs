@@ -136,6 +136,7 @@ fn radio_map(site: &Site, n: usize) -> RadioMap {
         site: "bench".into(),
         fallback: FallbackParams::default(),
         transmitters,
+        reference_scans: None,
     };
     RadioMap::from_file(&file, site).expect("bench radio map")
 }

@@ -120,6 +120,14 @@ pub struct AnchorConfig {
     pub start_weight: f64,
     /// The start floor is the anchors' heaviest floor.
     pub start_floor: bool,
+    /// Floor votes after the start come from the anchors (their heaviest
+    /// floor when it holds at least this share of their weight; 0 = the
+    /// strongest beacons vote, as without anchors).
+    pub floor_vote_share: f64,
+    /// With a barometer, this many consecutive anchor votes for another
+    /// floor move the track there even when the barometer saw no change
+    /// (a wrong start floor is otherwise kept for good; 0 = never).
+    pub floor_force_votes: u32,
     /// With reference scans, the start waits up to this long (after the
     /// first radio update) for a query with candidates, s.
     pub start_wait_s: f64,
@@ -132,6 +140,11 @@ pub struct AnchorConfig {
     pub reseed_fraction: f64,
     /// The query's RSSI less the phone offset estimate.
     pub use_offset: bool,
+    /// Accuracy radius: the cloud's radius and this share of the distance
+    /// from the published point to the anchors' mean, added in
+    /// quadrature (a track the fingerprints disagree with is less sure
+    /// than its cloud says; 0 = the cloud alone).
+    pub accuracy_share: f64,
 }
 
 impl Default for AnchorConfig {
@@ -145,11 +158,14 @@ impl Default for AnchorConfig {
             weight: 1.0,
             start_weight: 1.0,
             start_floor: true,
+            floor_vote_share: 0.5,
+            floor_force_votes: 5,
             start_wait_s: 5.0,
             reseed_support: 0.1,
             reseed_after: 3,
-            reseed_fraction: 0.3,
+            reseed_fraction: 0.0,
             use_offset: true,
+            accuracy_share: 0.5,
         }
     }
 }
@@ -164,16 +180,21 @@ impl AnchorConfig {
             ("weight", self.weight, 0.0, 100.0),
             ("start_weight", self.start_weight, 0.0, 100.0),
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
+            ("floor_vote_share", self.floor_vote_share, 0.0, 1.0),
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),
+            ("accuracy_share", self.accuracy_share, 0.0, 10.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
         }
-        if self.k > 256 || !(1..=1024).contains(&self.min_transmitters) || self.reseed_after > 1000
+        if self.k > 256
+            || !(1..=1024).contains(&self.min_transmitters)
+            || self.reseed_after > 1000
+            || self.floor_force_votes > 1000
         {
             return Err(crate::Error::config(
                 "tcpf.anchors.k",
-                "k must be <= 256, min_transmitters in 1..=1024, reseed_after <= 1000",
+                "k must be <= 256, min_transmitters in 1..=1024, reseed_after and floor_force_votes <= 1000",
             ));
         }
         Ok(())

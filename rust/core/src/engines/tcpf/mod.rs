@@ -92,6 +92,30 @@ struct RadioSet {
     anchors: Vec<Anchor>,
 }
 
+/// The cloud's weighted mean of the anchors' mixture (`mix`, one value
+/// per particle) over the mixture's highest value at a candidate of
+/// `floor` (1: the cloud sits on the best candidates; 0: far from all).
+/// `None` without anchors there.
+fn anchor_support(
+    anchors: &[Anchor],
+    floor: i32,
+    sigma_m: f64,
+    mix: &[f64],
+    weights: &[f64],
+) -> Option<f64> {
+    let peak = anchors
+        .iter()
+        .filter(|a| a.floor == floor)
+        .map(|a| anchor_mix(anchors, floor, a.pos, sigma_m))
+        .fold(0.0, f64::max);
+    let wsum: f64 = weights.iter().sum();
+    if peak <= 0.0 || wsum <= 0.0 {
+        return None;
+    }
+    let s: f64 = mix.iter().zip(weights).map(|(a, w)| a * w).sum();
+    Some(s / wsum / peak)
+}
+
 /// The anchors' mixture at `p` on `floor`: sum of w exp(-d^2 / 2 sigma^2).
 fn anchor_mix(anchors: &[Anchor], floor: i32, p: Vec2, sigma_m: f64) -> f64 {
     let k = -0.5 / (sigma_m * sigma_m);
@@ -119,6 +143,12 @@ pub struct TcpfEngine {
     trail: ScanTrail,
     /// Consecutive radio updates with the cloud away from the anchors.
     low_support: u32,
+    /// The weighted mean of the last anchors on their heaviest floor.
+    anchor_mean: Option<(i32, Vec2)>,
+    /// The anchors' mixture per particle (reused buffer).
+    anchor_buf: Vec<f64>,
+    /// Consecutive anchor floor votes for another floor.
+    anchor_floor_run: Option<(i32, u32)>,
     /// Last time each model transmitter was heard (cached WiFi results
     /// included), ns; i64::MIN never.
     last_heard: Vec<i64>,
@@ -229,6 +259,9 @@ impl TcpfEngine {
             pending: None,
             trail: ScanTrail::default(),
             low_support: 0,
+            anchor_floor_run: None,
+            anchor_mean: None,
+            anchor_buf: Vec::new(),
             last_heard: vec![i64::MIN; model.transmitters().len()],
             ble_active: false,
             wifi_active: false,
@@ -495,13 +528,34 @@ impl TcpfEngine {
         mean_l /= self.pf.particles().len().max(1) as f64;
         let mut log_l = std::mem::take(&mut self.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
-        let support = self.anchor_support(anchors, floor);
+        if let Some(f) = Self::anchor_floor(anchors) {
+            let (mut m, mut w) = (Vec2::zeros(), 0.0);
+            for a in anchors.iter().filter(|a| a.floor == f) {
+                m += a.pos * a.w;
+                w += a.w;
+            }
+            self.anchor_mean = (w > 0.0).then(|| (f, m / w));
+        }
+        // the anchors' mixture at each particle, once: the cloud's support
+        // (before this update's weights) and the weak extra likelihood
         let ac = &self.cfg.anchors;
-        if !anchors.is_empty() && ac.weight > 0.0 {
-            let norm = (ac.floor + 1.0).ln();
-            for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
-                let a = anchor_mix(anchors, floor, *p, ac.sigma_m);
-                *u += ac.weight * ((ac.floor + a).ln() - norm);
+        let on_floor = anchors.iter().any(|a| a.floor == floor);
+        let mut support = None;
+        if on_floor {
+            let mix = &mut self.anchor_buf;
+            mix.clear();
+            mix.extend(
+                self.pf
+                    .particles()
+                    .iter()
+                    .map(|p| anchor_mix(anchors, floor, *p, ac.sigma_m)),
+            );
+            support = anchor_support(anchors, floor, ac.sigma_m, mix, self.pf.weights());
+            if ac.weight > 0.0 {
+                let norm = (ac.floor + 1.0).ln();
+                for (u, a) in log_l.iter_mut().zip(mix.iter()) {
+                    *u += ac.weight * ((ac.floor + a).ln() - norm);
+                }
             }
         }
         self.pf.weight_log(&log_l);
@@ -563,33 +617,7 @@ impl TcpfEngine {
             self.counts.reseeded += n as u64;
         }
         self.anchor_reseed(anchors, floor, support);
-        self.update_floor(t_ns, meas);
-    }
-
-    /// The cloud's weighted mean of the anchor mixture over the mixture's
-    /// highest value at a candidate of `floor` (1: the cloud sits on the
-    /// best candidates; 0: far from all). `None` without anchors there.
-    fn anchor_support(&self, anchors: &[Anchor], floor: i32) -> Option<f64> {
-        let sigma = self.cfg.anchors.sigma_m;
-        let peak = anchors
-            .iter()
-            .filter(|a| a.floor == floor)
-            .map(|a| anchor_mix(anchors, floor, a.pos, sigma))
-            .fold(0.0, f64::max);
-        if peak <= 0.0 {
-            return None;
-        }
-        let (ps, ws) = (self.pf.particles(), self.pf.weights());
-        let wsum: f64 = ws.iter().sum();
-        if wsum <= 0.0 {
-            return None;
-        }
-        let s: f64 = ps
-            .iter()
-            .zip(ws)
-            .map(|(p, w)| w * anchor_mix(anchors, floor, *p, sigma))
-            .sum();
-        Some(s / wsum / peak)
+        self.update_floor(t_ns, meas, anchors);
     }
 
     /// Re-seeds part of the cloud around the anchors of `floor` when its
@@ -675,16 +703,44 @@ impl TcpfEngine {
             .map(|(f, _)| f)
     }
 
-    fn update_floor(&mut self, t_ns: i64, meas: &[Measurement]) {
+    fn update_floor(&mut self, t_ns: i64, meas: &[Measurement], anchors: &[Anchor]) {
         if self.site.spec.floors.len() < 2 {
             return;
         }
-        let vote = self.radio_floor_vote(meas);
+        let share = self.cfg.anchors.floor_vote_share;
+        let vote = if share > 0.0 && !anchors.is_empty() {
+            Self::anchor_floor(anchors).filter(|f| {
+                anchors
+                    .iter()
+                    .filter(|a| a.floor == *f)
+                    .map(|a| a.w)
+                    .sum::<f64>()
+                    >= share
+            })
+        } else {
+            self.radio_floor_vote(meas)
+        };
         if let Some(v) = vote {
             self.floors.on_ble_floor(t_ns, v);
         }
+        let force = self.cfg.anchors.floor_force_votes;
+        let anchor_vote = vote.filter(|_| !anchors.is_empty());
+        self.anchor_floor_run = match (anchor_vote, self.anchor_floor_run) {
+            (Some(v), _) if v == self.floor => None,
+            (Some(v), Some((f, n))) if f == v => Some((v, n + 1)),
+            (Some(v), _) => Some((v, 1)),
+            (None, run) => run,
+        };
         let target = if self.floors.has_pressure() {
-            self.floors.floor()
+            match self.anchor_floor_run {
+                Some((v, n)) if force > 0 && n >= force => {
+                    // the anchors have said another floor for long: the
+                    // barometer only gives changes, its start was wrong
+                    self.floors.reset_to_floor(v);
+                    Some(v)
+                }
+                _ => self.floors.floor(),
+            }
         } else {
             match (vote, self.other_floor) {
                 (Some(v), _) if v == self.floor => {
@@ -707,6 +763,7 @@ impl TcpfEngine {
         };
         self.counts.floor_changes += 1;
         self.other_floor = None;
+        self.anchor_floor_run = None;
         // floors share the x, y frame: the walker changes floor where the
         // track is (stairs, lift); if that point is not walkable there,
         // a global start on the new floor
@@ -866,6 +923,17 @@ impl TcpfEngine {
         (r * self.cfg.accuracy_scale).max(self.cfg.accuracy_min_m)
     }
 
+    /// [`Self::accuracy_m`] widened by the distance to the last anchors'
+    /// mean on the track's floor (`anchors.accuracy_share`).
+    fn accuracy_with_anchors(&self, at: Vec2) -> f64 {
+        let r = self.accuracy_m(at);
+        let share = self.cfg.anchors.accuracy_share;
+        match self.anchor_mean {
+            Some((f, m)) if share > 0.0 && f == self.floor => r.hypot(share * (m - at).norm()),
+            _ => r,
+        }
+    }
+
     fn publish(&mut self, t_ns: i64) {
         let Some(pos) = self.estimate() else { return };
         if let Some(prev) = self.published {
@@ -893,7 +961,7 @@ impl TcpfEngine {
             y_m: pos.y,
             floor: self.floor,
             heading_rad: self.heading_rad,
-            accuracy_m: self.accuracy_m(pos),
+            accuracy_m: self.accuracy_with_anchors(pos),
             floor_prob,
             source,
         });

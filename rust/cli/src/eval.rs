@@ -30,7 +30,7 @@ pub struct Args {
     pub logs: Vec<PathBuf>,
     /// Engine names, comma-separated: tcpf (the default engine), fpbp, bp,
     /// pdr, gml, trilat, frbw, ml,
-    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md,
+    /// wcentroid, prox-pf, ppsa, robust-ekf, tc-ekf, wifi-wcentroid, scan-knn (README.md,
     /// "Engines").
     #[arg(long, value_delimiter = ',', required = true)]
     pub engine: Vec<String>,

@@ -20,7 +20,7 @@ pub struct Args {
     pub log: PathBuf,
     /// Engine name: tcpf (the default engine), fpbp, bp, pdr, gml, trilat,
     /// frbw, ml, wcentroid, prox-pf,
-    /// ppsa, robust-ekf, tc-ekf, wifi-wcentroid (README.md, "Engines").
+    /// ppsa, robust-ekf, tc-ekf, wifi-wcentroid, scan-knn (README.md, "Engines").
     #[arg(long)]
     pub engine: String,
     /// Output folder (created).

@@ -125,6 +125,20 @@ pub struct ReferenceScans {
     ids: Vec<(TxKind, String)>,
     index: BTreeMap<(TxKind, String), u32>,
     scans: Vec<ReferenceScan>,
+    /// Per transmitter: (scan index, RSSI floored at `missing_dbm`) of
+    /// every scan that heard it (the query visits only these).
+    postings: Vec<Vec<(u32, f64)>>,
+    /// Per scan and radio (BLE, WiFi): sum of (r - missing)^2 and count,
+    /// the scan's side of "heard on one side only".
+    alone: Vec<[(f64, u32); 2]>,
+}
+
+/// 0 for BLE, 1 for WiFi (index into [`ReferenceScans`]'s per-radio sums).
+fn radio_slot(k: TxKind) -> usize {
+    match k {
+        TxKind::Ble => 0,
+        TxKind::Wifi => 1,
+    }
 }
 
 impl ReferenceScans {
@@ -168,11 +182,27 @@ impl ReferenceScans {
                 )));
             }
         }
+        let m = cfg.missing_dbm;
+        let mut postings: Vec<Vec<(u32, f64)>> = vec![Vec::new(); ids.len()];
+        let mut alone = Vec::with_capacity(scans.len());
+        for (si, s) in scans.iter().enumerate() {
+            let mut a = [(0.0, 0u32); 2];
+            for &(j, r10) in &s.tx {
+                let r = (f64::from(r10) / 10.0).max(m);
+                postings[j as usize].push((si as u32, r));
+                let slot = &mut a[radio_slot(ids[j as usize].0)];
+                slot.0 += (r - m) * (r - m);
+                slot.1 += 1;
+            }
+            alone.push(a);
+        }
         Ok(ReferenceScans {
             cfg,
             ids,
             index,
             scans,
+            postings,
+            alone,
         })
     }
 
@@ -231,31 +261,30 @@ impl ReferenceScans {
             return Vec::new();
         }
         let q_only: f64 = q.iter().map(|(_, r)| (r - m) * (r - m)).sum();
+        // each shared transmitter turns two "heard on one side only" terms
+        // into one difference: visit only the scans that heard the query's
+        let mut shared: Vec<(f64, u32)> = vec![(0.0, 0); self.scans.len()];
+        for &(j, a) in &q {
+            for &(si, r) in &self.postings[j as usize] {
+                let e = &mut shared[si as usize];
+                e.0 += (a - r) * (a - r) - (a - m) * (a - m) - (r - m) * (r - m);
+                e.1 += 1;
+            }
+        }
         let mut out: Vec<(f64, usize)> = Vec::new();
-        for (si, s) in self.scans.iter().enumerate() {
-            // start from "nothing shared" and correct the shared entries
-            let (mut sum, mut n, mut shared) = (q_only, q.len(), 0usize);
-            let mut qi = 0;
-            for &(j, r10) in &s.tx {
-                if !used(j) {
-                    continue;
-                }
-                let r = (f64::from(r10) / 10.0).max(m);
-                while qi < q.len() && q[qi].0 < j {
-                    qi += 1;
-                }
-                if qi < q.len() && q[qi].0 == j {
-                    let a = q[qi].1;
-                    sum += (a - r) * (a - r) - (a - m) * (a - m);
-                    shared += 1;
-                } else {
-                    sum += (r - m) * (r - m);
-                    n += 1;
+        for (si, &(corr, n_shared)) in shared.iter().enumerate() {
+            if n_shared == 0 {
+                continue;
+            }
+            let al = &self.alone[si];
+            let (mut sum, mut n) = (q_only + corr, q.len() as u32 - n_shared);
+            for (slot, on) in [(0, use_ble), (1, use_wifi)] {
+                if on {
+                    sum += al[slot].0;
+                    n += al[slot].1;
                 }
             }
-            if shared > 0 {
-                out.push(((sum.max(0.0) / n as f64).sqrt(), si));
-            }
+            out.push(((sum.max(0.0) / f64::from(n.max(1))).sqrt(), si));
         }
         let k = k.min(out.len());
         if k == 0 {
@@ -512,6 +541,84 @@ mod tests {
         assert!(s.query(&[(0, -51.0)], true, false, 3).is_empty());
         // nothing shared: no candidate
         assert!(s.query(&[(2, -51.0)], false, true, 3).len() == 1);
+    }
+
+    /// The distance by its definition: RMS over the union of the radios in
+    /// use, one side missing = `missing_dbm`.
+    fn brute(s: &ReferenceScans, q: &[(u32, f64)], ble: bool, wifi: bool) -> Vec<(f64, usize)> {
+        let m = s.config().missing_dbm;
+        let used = |j: u32| match s.kind(j) {
+            Some(TxKind::Ble) => ble,
+            Some(TxKind::Wifi) => wifi,
+            None => false,
+        };
+        let mut out = Vec::new();
+        for (si, sc) in s.scans().iter().enumerate() {
+            let mut all: BTreeMap<u32, (f64, f64)> = BTreeMap::new();
+            for &(j, a) in q.iter().filter(|(j, _)| used(*j)) {
+                all.entry(j).or_insert((m, m)).0 = a.max(m);
+            }
+            for &(j, r) in sc.tx.iter().filter(|(j, _)| used(*j)) {
+                all.entry(j).or_insert((m, m)).1 = (f64::from(r) / 10.0).max(m);
+            }
+            let shared = q
+                .iter()
+                .any(|(j, _)| used(*j) && sc.tx.iter().any(|(k, _)| k == j));
+            if shared {
+                let sum: f64 = all.values().map(|(a, r)| (a - r) * (a - r)).sum();
+                out.push(((sum / all.len() as f64).sqrt(), si));
+            }
+        }
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        out
+    }
+
+    #[test]
+    fn the_query_matches_the_definition_on_random_scans() {
+        let mut seed = 12345u64;
+        let mut next = move |n: u64| {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 33) % n
+        };
+        let ids: Vec<(TxKind, String)> = (0..30)
+            .map(|i| {
+                let k = if i % 3 == 0 { TxKind::Ble } else { TxKind::Wifi };
+                (k, format!("id{i}"))
+            })
+            .collect();
+        let scans: Vec<ReferenceScan> = (0..200)
+            .map(|i| {
+                let mut tx: Vec<(u32, i16)> = Vec::new();
+                for j in 0..30u32 {
+                    if next(3) == 0 {
+                        tx.push((j, -(300 + next(700) as i16)));
+                    }
+                }
+                ReferenceScan {
+                    floor: 0,
+                    x_m: i as f64,
+                    y_m: 0.0,
+                    tx,
+                }
+            })
+            .collect();
+        let set = ReferenceScans::new(ReferenceScanConfig::default(), ids, scans).unwrap();
+        for _ in 0..50 {
+            let mut q: Vec<(u32, f64)> = Vec::new();
+            for j in 0..30u32 {
+                if next(4) == 0 {
+                    q.push((j, -30.0 - next(75) as f64));
+                }
+            }
+            for (ble, wifi) in [(true, true), (true, false), (false, true)] {
+                let want = brute(&set, &q, ble, wifi);
+                let got = set.query(&q, ble, wifi, 7);
+                assert_eq!(got.len(), want.len().min(7));
+                for (g, w) in got.iter().zip(&want) {
+                    assert!((g.dist_db - w.0).abs() < 1e-9, "{g:?} vs {w:?}");
+                }
+            }
+        }
     }
 
     #[test]

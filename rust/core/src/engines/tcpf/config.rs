@@ -155,7 +155,7 @@ impl Default for AnchorConfig {
             tau_db: 2.0,
             sigma_m: 4.0,
             floor: 0.05,
-            weight: 1.0,
+            weight: 1.5,
             start_weight: 1.0,
             start_floor: true,
             floor_vote_share: 0.5,

@@ -36,6 +36,9 @@ pub const MAX_REFERENCE_SCANS: usize = 200_000;
 pub const MAX_REFERENCE_IDS: usize = 100_000;
 /// Most transmitters in one reference scan.
 pub const MAX_SCAN_TRANSMITTERS: usize = 1024;
+/// Most (transmitter, RSSI) entries over all scans (~240 MB with the
+/// query's index; ILC F1's 53 survey walks hold ~180 000).
+pub const MAX_REFERENCE_ENTRIES: usize = 10_000_000;
 
 /// How reference scans are cut from survey walks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -152,6 +155,16 @@ impl ReferenceScans {
         cfg.validate("reference_scans.config")?;
         check_count("reference_scans.ids", ids.len(), 0, MAX_REFERENCE_IDS)?;
         check_count("reference_scans.scans", scans.len(), 0, MAX_REFERENCE_SCANS)?;
+        let entries = scans
+            .iter()
+            .map(|s| s.tx.len())
+            .fold(0usize, usize::saturating_add);
+        check_count(
+            "reference_scans.scans[].tx",
+            entries,
+            0,
+            MAX_REFERENCE_ENTRIES,
+        )?;
         for (i, s) in scans.iter().enumerate() {
             let bad = |f: &str, m: String| {
                 Err(Error::Input(format!(
@@ -317,6 +330,8 @@ pub struct ReferenceScanBuilder {
     ids: Vec<(TxKind, String)>,
     index: BTreeMap<(TxKind, String), u32>,
     scans: Vec<ReferenceScan>,
+    /// Entries over all scans so far.
+    entries: usize,
     /// Scans left out: too few transmitters, a floor change inside the
     /// window, or over the size bounds.
     pub skipped: usize,
@@ -333,6 +348,7 @@ impl ReferenceScanBuilder {
             ids: Vec::new(),
             index: BTreeMap::new(),
             scans: Vec::new(),
+            entries: 0,
             skipped: 0,
         })
     }
@@ -371,7 +387,10 @@ impl ReferenceScanBuilder {
 
     fn push_window(&mut self, w: &[RadioSample]) {
         let Some(at) = w.last() else { return };
-        if w.iter().any(|s| s.floor != at.floor) || self.scans.len() >= MAX_REFERENCE_SCANS {
+        if w.iter().any(|s| s.floor != at.floor)
+            || self.scans.len() >= MAX_REFERENCE_SCANS
+            || self.entries + w.len().min(MAX_SCAN_TRANSMITTERS) > MAX_REFERENCE_ENTRIES
+        {
             self.skipped += 1;
             return;
         }
@@ -408,6 +427,7 @@ impl ReferenceScanBuilder {
             tx.truncate(MAX_SCAN_TRANSMITTERS);
             tx.sort_by_key(|x| x.0);
         }
+        self.entries += tx.len();
         self.scans.push(ReferenceScan {
             floor: at.floor,
             x_m: (at.pos.x * 100.0).round() / 100.0,
@@ -577,12 +597,18 @@ mod tests {
     fn the_query_matches_the_definition_on_random_scans() {
         let mut seed = 12345u64;
         let mut next = move |n: u64| {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (seed >> 33) % n
         };
         let ids: Vec<(TxKind, String)> = (0..30)
             .map(|i| {
-                let k = if i % 3 == 0 { TxKind::Ble } else { TxKind::Wifi };
+                let k = if i % 3 == 0 {
+                    TxKind::Ble
+                } else {
+                    TxKind::Wifi
+                };
                 (k, format!("id{i}"))
             })
             .collect();

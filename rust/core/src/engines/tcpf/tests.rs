@@ -173,3 +173,121 @@ fn config_errors_name_the_field() {
     let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
     assert!(e.to_string().contains("tcpf.offset.prior_sd_db"), "{e}");
 }
+
+/// A two-floor copy of the test site whose radio map carries reference
+/// scans of the walk heard on floor 1 only, the walker's barometer level.
+fn two_floors_with_scans_on_1() -> (Arc<Site>, Arc<crate::radio::RadioMap>, Vec<LogEvent>) {
+    use crate::radio::radio_map_file::{
+        IdFile, KindFile, PathLossFile, RadioMapFile, ReferenceScansFile, TxFile,
+    };
+    use crate::radio::reference_scans::{ReferenceScan, ReferenceScanConfig};
+    let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
+    let site = crate::site::testkit::beacon_site(
+        "two-floors",
+        vec![walled_map(), walled_map()],
+        &bs,
+        MODEL,
+    );
+    let id = |k: usize| format!("mac:00:00:00:00:00:{k:02X}");
+    let scans = (0..40)
+        .map(|y| {
+            let p = Vec2::new(7.0, y as f64);
+            ReferenceScan {
+                floor: 1,
+                x_m: p.x,
+                y_m: p.y,
+                tx: beacons()
+                    .iter()
+                    .enumerate()
+                    .map(|(k, b)| {
+                        let r = MODEL.rssi_at(crate::ble::pathloss::range_m(p, *b, 0.0, 0.5), 0.5);
+                        (k as u32, (r * 10.0).round() as i16)
+                    })
+                    .collect(),
+            }
+        })
+        .collect();
+    let file = RadioMapFile {
+        format: crate::radio::radio_map_file::FORMAT.into(),
+        version: crate::radio::radio_map_file::VERSION,
+        site: "two-floors".into(),
+        fallback: Default::default(),
+        transmitters: bs
+            .iter()
+            .enumerate()
+            .map(|(k, &(x, y))| TxFile {
+                id: id(k),
+                kind: KindFile::Ble,
+                floor: 0,
+                x_m: x,
+                y_m: y,
+                pathloss: Some(PathLossFile {
+                    dz_m: 0.0,
+                    rssi_1m_dbm: MODEL.rssi_1m_dbm,
+                    exponent: MODEL.exponent,
+                }),
+                samples: 0,
+                walks: 0,
+                grids: vec![],
+            })
+            .collect(),
+        reference_scans: Some(ReferenceScansFile {
+            config: ReferenceScanConfig::default(),
+            ids: (0..bs.len())
+                .map(|k| IdFile {
+                    kind: KindFile::Ble,
+                    id: id(k),
+                })
+                .collect(),
+            scans,
+        }),
+    };
+    let map = Arc::new(crate::radio::RadioMap::from_file(&file, &site).unwrap());
+    let mut ev = walk_north(30, None);
+    for i in 0..300 {
+        ev.push(LogEvent::Sensor(SensorEvent {
+            t_ns: i * 100_000_000 + 1,
+            data: SensorData::Pressure(1000.0),
+        }));
+    }
+    ev.sort_by_key(|e| e.t_ns());
+    (site, map, ev)
+}
+
+/// First time the track is on floor `f`, s.
+fn first_on(out: &ReplayOutput, f: i32) -> Option<f64> {
+    out.track
+        .iter()
+        .find(|p| p.floor == f)
+        .map(|p| p.t_ns as f64 * 1e-9)
+}
+
+#[test]
+fn anchors_move_a_wrong_start_floor_against_a_level_barometer() {
+    let (site, map, ev) = two_floors_with_scans_on_1();
+    let init = Some(InitialPosition {
+        x_m: 7.0,
+        y_m: 4.0,
+        floor: 0,
+        heading_rad: None,
+    });
+    let run_with = |cfg: &EngineConfig| {
+        let mut e = TcpfEngine::with_model(site.clone(), cfg, init, map.clone()).unwrap();
+        replay(&mut e, ev.iter().cloned())
+    };
+    let on = run_with(&EngineConfig::default());
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.anchors.floor_force_votes = 0;
+    let off = run_with(&cfg);
+    let (t_on, t_off) = (first_on(&on, 1), first_on(&off, 1));
+    eprintln!("first pose on floor 1: forced {t_on:?} s, not forced {t_off:?} s");
+    let t_on = t_on.expect("the anchors move the track to floor 1");
+    assert!(t_on < 10.0, "moved only at {t_on:.1} s");
+    assert!(t_off.is_none_or(|t| t > t_on + 5.0), "{t_off:?}");
+    assert_eq!(on.track.last().map(|p| p.floor), Some(1));
+    // the start floor from the anchors: no start position, no wrong floor
+    let mut e =
+        TcpfEngine::with_model(site.clone(), &EngineConfig::default(), None, map.clone()).unwrap();
+    let own = replay(&mut e, ev.iter().cloned());
+    assert_eq!(own.track.first().map(|p| p.floor), Some(1));
+}

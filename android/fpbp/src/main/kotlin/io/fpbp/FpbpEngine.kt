@@ -36,7 +36,8 @@ class FpbpEngine private constructor(
          * its `format`: a walked-survey fingerprint database for `robust-ekf`
          * (`fpbp fingerprint build`; null = the engine builds one from the
          * path-loss model), or a radio map for `tcpf` (`fpbp calibrate
-         * --radio-map`; null = the site's path-loss models). Throws [IllegalArgumentException]
+         * --radio-map`; its reference scans anchor the start and the floor;
+         * null = the site's path-loss models). Throws [IllegalArgumentException]
          * naming the bad field, file or name.
          */
         @JvmStatic

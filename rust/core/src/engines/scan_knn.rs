@@ -11,11 +11,10 @@
 
 use std::sync::Arc;
 
-use crate::Vec2;
 use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorEvent, WifiScan};
-use crate::radio::reference_scans::ScanTrail;
-use crate::radio::{RadioModel, TxKind};
+use crate::radio::RadioModel;
+use crate::radio::reference_scans::{ScanTrail, candidate_fix};
 use crate::wifi::FreshResults;
 
 /// The engine.
@@ -62,50 +61,19 @@ impl ScanKnnEngine {
             self.stats.no_fix += 1;
             return;
         }
-        let has = |k: TxKind| q.iter().any(|(j, _)| scans.kind(*j) == Some(k));
-        let c = scans.query(&q, has(TxKind::Ble), has(TxKind::Wifi), self.k);
-        let Some(d0) = c.first().map(|c| c.dist_db) else {
+        let c = scans.weighted_query(&q, self.k, self.tau_db);
+        let Some(fix) = candidate_fix(&c) else {
             self.stats.no_fix += 1;
             return;
         };
-        let w: Vec<f64> = c
-            .iter()
-            .map(|c| (-(c.dist_db - d0) / self.tau_db).exp())
-            .collect();
-        let mut by_floor: std::collections::BTreeMap<i32, f64> = Default::default();
-        for (c, w) in c.iter().zip(&w) {
-            *by_floor.entry(c.floor).or_insert(0.0) += w;
-        }
-        let Some(floor) = by_floor
-            .iter()
-            .max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0)))
-            .map(|(f, _)| *f)
-        else {
-            return;
-        };
-        let (mut s, mut ws) = (Vec2::zeros(), 0.0);
-        for (c, w) in c.iter().zip(&w).filter(|(c, _)| c.floor == floor) {
-            s += c.pos * *w;
-            ws += w;
-        }
-        let mean = s / ws;
-        let spread = (c
-            .iter()
-            .zip(&w)
-            .filter(|(c, _)| c.floor == floor)
-            .map(|(c, w)| w * (c.pos - mean).norm_squared())
-            .sum::<f64>()
-            / ws)
-            .sqrt();
-        let floor_prob = by_floor[&floor] / w.iter().sum::<f64>();
         self.pose = Some(Pose {
             t_ns,
-            x_m: mean.x,
-            y_m: mean.y,
-            floor,
+            x_m: fix.mean.x,
+            y_m: fix.mean.y,
+            floor: fix.floor,
             heading_rad: 0.0,
-            accuracy_m: spread.max(1.0),
-            floor_prob,
+            accuracy_m: fix.spread_m.max(1.0),
+            floor_prob: fix.share,
             source: PoseSource::Radio,
         });
     }

@@ -120,6 +120,59 @@ pub struct Candidate {
     pub dist_db: f64,
 }
 
+/// A candidate weighted by its RSSI distance: exp(-(d - d_best) / tau),
+/// the weights of one query summing to 1.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WeightedCandidate {
+    pub floor: i32,
+    pub pos: Vec2,
+    pub w: f64,
+}
+
+/// Where weighted candidates point: their heaviest floor (ties: the lower
+/// id), its share of the weight, and the weighted mean and RMS spread of
+/// the candidates on it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CandidateFix {
+    pub floor: i32,
+    pub share: f64,
+    pub mean: Vec2,
+    pub spread_m: f64,
+}
+
+/// The [`CandidateFix`] of `c`; `None` without weight.
+pub fn candidate_fix(c: &[WeightedCandidate]) -> Option<CandidateFix> {
+    let mut by_floor: BTreeMap<i32, f64> = BTreeMap::new();
+    for a in c {
+        *by_floor.entry(a.floor).or_insert(0.0) += a.w;
+    }
+    let (floor, share) = by_floor
+        .into_iter()
+        .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))?;
+    let (mut m, mut w) = (Vec2::zeros(), 0.0);
+    for a in c.iter().filter(|a| a.floor == floor) {
+        m += a.pos * a.w;
+        w += a.w;
+    }
+    if w <= 0.0 {
+        return None;
+    }
+    let mean = m / w;
+    let spread_m = (c
+        .iter()
+        .filter(|a| a.floor == floor)
+        .map(|a| a.w * (a.pos - mean).norm_squared())
+        .sum::<f64>()
+        / w)
+        .sqrt();
+    Some(CandidateFix {
+        floor,
+        share,
+        mean,
+        spread_m,
+    })
+}
+
 /// The reference scans of a site.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct ReferenceScans {
@@ -319,6 +372,35 @@ impl ReferenceScans {
                 }
             })
             .collect()
+    }
+}
+
+impl ReferenceScans {
+    /// [`ReferenceScans::query`] over the radios `query` holds, each of
+    /// the `k` candidates weighted exp(-(d - d_best) / `tau_db`), the
+    /// weights summing to 1.
+    pub fn weighted_query(
+        &self,
+        query: &[(u32, f64)],
+        k: usize,
+        tau_db: f64,
+    ) -> Vec<WeightedCandidate> {
+        let has = |kind: TxKind| query.iter().any(|(j, _)| self.kind(*j) == Some(kind));
+        let c = self.query(query, has(TxKind::Ble), has(TxKind::Wifi), k);
+        let Some(d0) = c.first().map(|c| c.dist_db) else {
+            return Vec::new();
+        };
+        let mut out: Vec<WeightedCandidate> = c
+            .iter()
+            .map(|c| WeightedCandidate {
+                floor: c.floor,
+                pos: c.pos,
+                w: (-(c.dist_db - d0) / tau_db).exp(),
+            })
+            .collect();
+        let total: f64 = out.iter().map(|a| a.w).sum();
+        out.iter_mut().for_each(|a| a.w /= total);
+        out
     }
 }
 

@@ -42,7 +42,7 @@ use crate::map::FloorMap;
 use crate::pdr::Pdr;
 use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood, profiled};
 use crate::radio::model::PathLossParams;
-use crate::radio::reference_scans::ScanTrail;
+use crate::radio::reference_scans::{ScanTrail, WeightedCandidate, candidate_fix};
 use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWindow, TxKind};
 use crate::site::Site;
 use crate::wifi::FreshResults;
@@ -77,12 +77,7 @@ pub struct TcpfCounts {
 
 /// One candidate place of the reference-scan query, with its weight
 /// (the weights of one query sum to 1).
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Anchor {
-    floor: i32,
-    pos: Vec2,
-    w: f64,
-}
+type Anchor = WeightedCandidate;
 
 /// One radio task's output: time, heard transmitters, missed ones with
 /// their radio's sensitivity (dBm), and the anchors of the scan window.
@@ -528,13 +523,8 @@ impl TcpfEngine {
         mean_l /= self.pf.particles().len().max(1) as f64;
         let mut log_l = std::mem::take(&mut self.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
-        if let Some(f) = Self::anchor_floor(anchors) {
-            let (mut m, mut w) = (Vec2::zeros(), 0.0);
-            for a in anchors.iter().filter(|a| a.floor == f) {
-                m += a.pos * a.w;
-                w += a.w;
-            }
-            self.anchor_mean = (w > 0.0).then(|| (f, m / w));
+        if let Some(fix) = candidate_fix(anchors) {
+            self.anchor_mean = Some((fix.floor, fix.mean));
         }
         // the anchors' mixture at each particle, once: the cloud's support
         // (before this update's weights) and the weak extra likelihood
@@ -673,34 +663,12 @@ impl TcpfEngine {
         if q.len() < ac.min_transmitters {
             return Vec::new();
         }
-        let has = |k: TxKind| q.iter().any(|(j, _)| scans.kind(*j) == Some(k));
-        let c = scans.query(&q, has(TxKind::Ble), has(TxKind::Wifi), ac.k);
-        let Some(d0) = c.first().map(|c| c.dist_db) else {
-            return Vec::new();
-        };
-        let mut out: Vec<Anchor> = c
-            .iter()
-            .map(|c| Anchor {
-                floor: c.floor,
-                pos: c.pos,
-                w: (-(c.dist_db - d0) / ac.tau_db).exp(),
-            })
-            .collect();
-        let total: f64 = out.iter().map(|a| a.w).sum();
-        out.iter_mut().for_each(|a| a.w /= total);
+        let out = scans.weighted_query(&q, ac.k, ac.tau_db);
+        if out.is_empty() {
+            return out;
+        }
         self.counts.anchor_queries += 1;
         out
-    }
-
-    /// The floor holding most of the anchors' weight.
-    fn anchor_floor(anchors: &[Anchor]) -> Option<i32> {
-        let mut by: BTreeMap<i32, f64> = BTreeMap::new();
-        for a in anchors {
-            *by.entry(a.floor).or_insert(0.0) += a.w;
-        }
-        by.into_iter()
-            .max_by(|a, b| a.1.total_cmp(&b.1).then(b.0.cmp(&a.0)))
-            .map(|(f, _)| f)
     }
 
     fn update_floor(&mut self, t_ns: i64, meas: &[Measurement], anchors: &[Anchor]) {
@@ -709,14 +677,9 @@ impl TcpfEngine {
         }
         let share = self.cfg.anchors.floor_vote_share;
         let vote = if share > 0.0 && !anchors.is_empty() {
-            Self::anchor_floor(anchors).filter(|f| {
-                anchors
-                    .iter()
-                    .filter(|a| a.floor == *f)
-                    .map(|a| a.w)
-                    .sum::<f64>()
-                    >= share
-            })
+            candidate_fix(anchors)
+                .filter(|fix| fix.share >= share)
+                .map(|fix| fix.floor)
         } else {
             self.radio_floor_vote(meas)
         };
@@ -1021,7 +984,7 @@ impl TcpfEngine {
                 // changes, not the floor itself, until the start anchors it
                 let vote = self.radio_floor_vote(&meas);
                 let by_anchors = if self.cfg.anchors.start_floor {
-                    Self::anchor_floor(&anchors)
+                    candidate_fix(&anchors).map(|fix| fix.floor)
                 } else {
                     None
                 };

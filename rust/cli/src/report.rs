@@ -78,7 +78,9 @@ pub struct TrackQuality {
     /// Segments that are jumps ([`is_jump`]).
     pub jumps: usize,
     pub jumps_per_100m: Option<f64>,
-    /// Segments whose straight line crosses a Wall of their floor.
+    /// Segments whose straight line crosses a Wall of their floor
+    /// ([`fpbp_core::engine::track_segment_crosses_wall`], the check the
+    /// engines make before publishing).
     pub wall_crossings: usize,
     pub wall_crossings_per_100m: Option<f64>,
     /// Fraction of poses inside a Wall.
@@ -105,9 +107,7 @@ impl TrackQuality {
                 }
                 q.length_m += (b.x_m - a.x_m).hypot(b.y_m - a.y_m);
                 q.jumps += usize::from(is_jump(a, b));
-                if let Some(m) = site.floor(a.floor)
-                    && m.crosses_wall(Vec2::new(a.x_m, a.y_m), Vec2::new(b.x_m, b.y_m), 0.05)
-                {
+                if fpbp_core::engine::track_segment_crosses_wall(site, a, b) {
                     q.wall_crossings += 1;
                 }
             }

@@ -61,6 +61,21 @@ pub struct Pose {
     pub source: PoseSource,
 }
 
+/// Whether the segment between two consecutive poses of a published track
+/// crosses a Wall: both on one floor of `site` and
+/// [`crate::map::FloorMap::track_crosses_wall`] between them. `fpbp eval`
+/// counts these segments as wall crossings; a segment between floors is
+/// none.
+pub fn track_segment_crosses_wall(site: &crate::site::Site, a: &Pose, b: &Pose) -> bool {
+    a.floor == b.floor
+        && site.floor(a.floor).is_some_and(|m| {
+            m.track_crosses_wall(
+                crate::Vec2::new(a.x_m, a.y_m),
+                crate::Vec2::new(b.x_m, b.y_m),
+            )
+        })
+}
+
 /// What a [`Pose`] rests on.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]

@@ -11,10 +11,12 @@ mod normals;
 pub mod plan;
 mod raycast;
 mod rooms;
+mod walk;
 
 pub use plan::{ClassifiedPlan, classify_png};
 pub use raycast::crosses_wall_sampled;
 pub use rooms::{Room, RoomId};
+pub use walk::{TRACK_WALL_STEP_M, WALK_MAX_NODES, WalkStep};
 
 use crate::Vec2;
 use rooms::NO_ROOM;

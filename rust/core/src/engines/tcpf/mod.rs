@@ -16,7 +16,8 @@
 //!   pending measurement set weighs them; the phone's RSSI offset is updated
 //!   from the residuals ([`crate::radio::PhoneOffset`]); ESS resampling;
 //!   augmented-MCL re-seeding from the likelihood surface when the cloud has
-//!   lost the radio; the published point never jumps through a wall.
+//!   lost the radio; the published point never jumps through a wall (it
+//!   walks toward the cloud through the doors, [`FloorMap::walk_toward`]).
 //!
 //! Start: with an [`InitialPosition`] the particles start there; otherwise
 //! from the first measurement set, drawn over the walkable area of the most
@@ -47,8 +48,15 @@ use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWind
 use crate::site::Site;
 use crate::wifi::FreshResults;
 
-/// Sampling step of the wall checks, metres.
+/// Sampling step of the particles' wall checks, metres (the published
+/// point is checked as `fpbp eval` checks it: [`FloorMap::track_crosses_wall`]).
 const WALL_STEP_M: f64 = 0.1;
+
+/// Lattice spacing and search margin of the published point's walk
+/// through the doors ([`FloorMap::walk_toward`]), metres: a door is at
+/// least ~0.8 m wide, so several lattice columns pass it.
+const WALK_SPACING_M: f64 = 0.25;
+const WALK_MARGIN_M: f64 = 15.0;
 
 /// Diagnostics of a `tcpf` run.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -65,8 +73,10 @@ pub struct TcpfCounts {
     /// Particles re-seeded from the likelihood surface.
     pub reseeded: u64,
     /// Fusion runs that held the published point instead of jumping
-    /// through a wall, and jumps made after the hold ran out.
+    /// through a wall; moves of it along a walk through the doors toward
+    /// the cloud after the hold ran out; jumps where the map had no way.
     pub held: u64,
+    pub walked: u64,
     pub jumps: u64,
     pub floor_changes: u64,
     /// Anchor queries that gave candidates, and particles re-seeded
@@ -800,7 +810,7 @@ impl TcpfEngine {
             let best = (0..ps.len()).max_by(|a, b| ws[*a].total_cmp(&ws[*b]).then(b.cmp(a)));
             return best.map(|i| ps[i]).or(Some(mean));
         };
-        let ok = |q: Vec2| map.is_walkable(q) && !map.crosses_wall(prev, q, WALL_STEP_M);
+        let ok = |q: Vec2| map.is_walkable(q) && !map.track_crosses_wall(prev, q);
         if ok(mean) {
             self.hold_runs = 0;
             return Some(mean);
@@ -822,10 +832,24 @@ impl TcpfEngine {
             self.counts.held += 1;
             return Some(prev);
         }
-        self.hold_runs = 0;
-        self.counts.jumps += 1;
+        // the hold ran out: walk toward the cloud through the doors (the
+        // hold is not reset, so the walk goes on run after run until the
+        // cloud is in reach); where the map has no way there (a door it
+        // lacks: the cloud got there through a wall the walker did not
+        // cross), jump as before
         let r = dominant_room(ps, ws, |p| map.room_of(p)).map(|r| r.mean);
-        Some(r.filter(|q| map.is_walkable(*q)).unwrap_or(mean))
+        let target = r.filter(|q| map.is_walkable(*q)).unwrap_or(mean);
+        match map.walk_toward(prev, target, WALK_SPACING_M, WALK_MARGIN_M) {
+            Some(w) if w.reaches => {
+                self.counts.walked += 1;
+                Some(w.next)
+            }
+            _ => {
+                self.hold_runs = 0;
+                self.counts.jumps += 1;
+                Some(target)
+            }
+        }
     }
 
     /// The weighted mean of the particles within one bin of the heaviest

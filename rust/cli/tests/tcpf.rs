@@ -75,8 +75,16 @@ fn a_phone_nine_db_weaker_is_seen_as_one() {
     );
     // Issue 16 asks for the same track within 1 m: not reached. With the
     // defaults the offsets end 6.2 and 5.7 dB apart (of 9) and the tracks
-    // a median 9.5 m apart after 60 s (the cloud explains part of the
-    // weaker readings by standing farther from the beacons; docs/tcpf.md).
+    // a median 9.7 m apart after 60 s. Causes (docs/tcpf.md "Not done"):
+    // the weaker phone's global start lands tens of metres away (seed 4:
+    // 56 m at the first pose) because the start profiles the offset
+    // under the N(0, 4 dB) prior, which favours cells far from the
+    // beacons for a weak phone, and the lost cloud then explains the
+    // readings with a larger offset for good; and the offset's censoring
+    // guard (transmitters expected below -88 dBm at the estimate left
+    // out) picks different transmitters for the two phones while the
+    // residuals depend on the expected level (walls attenuate the far
+    // beacons), so the two estimates differ by 6-7 dB, not 9.
     // What is pinned here: the weaker phone's offset moves most of the way.
     for d in &offsets {
         assert!(
@@ -84,6 +92,36 @@ fn a_phone_nine_db_weaker_is_seen_as_one() {
             "offset difference {d:.2} dB, want most of the 9 dB"
         );
     }
+}
+
+/// The floor of the two-phone measure: the very same readings replayed
+/// with engine seeds 1 and 2 (no offset at all) give tracks a median
+/// 0.18 m apart after 60 s over simulated walks 4, 5, 7 and 8 (p90
+/// 0.46 m): the filter's own divergence leaves room for the issue's 1 m;
+/// the two-phone case misses it through the offset and the start
+/// (`a_phone_nine_db_weaker_is_seen_as_one`).
+#[test]
+fn the_same_readings_with_another_engine_seed_stay_within_a_metre() {
+    let site = demo_site();
+    let mut sep = Vec::new();
+    for sim in [4u64, 5, 7, 8] {
+        let log = simulate(&site, &SimRequest::new(180.0, sim)).unwrap();
+        let (a, b) = (run(&site, &log.events, 1), run(&site, &log.events, 2));
+        let t0 = log.events[0].t_ns();
+        for p in a.track.iter().filter(|p| p.t_ns - t0 > 60_000_000_000) {
+            if let Some(q) = at(&b.track, p.t_ns) {
+                sep.push((p.x_m - q.x_m).hypot(p.y_m - q.y_m));
+            }
+        }
+    }
+    assert!(sep.len() > 1000, "{} poses compared", sep.len());
+    sep.sort_by(f64::total_cmp);
+    let (median, p90) = (sep[sep.len() / 2], sep[sep.len() * 9 / 10]);
+    eprintln!("engine seeds 1 vs 2: separation after 60 s median {median:.2} m, p90 {p90:.2} m");
+    assert!(
+        median < 1.0 && p90 < 1.0,
+        "separation median {median:.2} m, p90 {p90:.2} m"
+    );
 }
 
 /// A first scan heard far from where the transmitters' strongest readings

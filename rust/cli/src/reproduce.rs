@@ -177,6 +177,12 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
                     r#"{"prox_pf":{"floormap":false}}"#,
                     Own,
                 ),
+                v(
+                    "prox-pf, restart when all weights 0",
+                    "prox-pf",
+                    r#"{"prox_pf":{"restart_when_all_zero":true}}"#,
+                    Own,
+                ),
                 v("pdr", "pdr", "{}", Truth),
             ],
             figures: vec![

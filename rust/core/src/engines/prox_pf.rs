@@ -77,6 +77,14 @@ pub struct ProxPfConfig {
     /// algorithm without using a floormap", Table I): particles move
     /// freely, no penalty, no wall rule. Default true.
     pub floormap: bool,
+    /// When every weight has fallen to 0 (eq. 1's max(., 0) after wall
+    /// penalties: the whole cloud ran into walls, e.g. behind the walker at
+    /// a turn), start again from Step 1 (particles uniform over the
+    /// enterable area). The paper names this state ("we cannot estimate the
+    /// user's current position", footnote 2) but not a way out: without
+    /// one the cloud is stuck at the wall for good and the pose frozen.
+    /// Default false (the paper as printed; docs/reproduction.md).
+    pub restart_when_all_zero: bool,
 }
 
 impl Default for ProxPfConfig {
@@ -96,6 +104,7 @@ impl Default for ProxPfConfig {
             initial_weight: 1.0,
             proximity: ProximityConfig::default(),
             floormap: true,
+            restart_when_all_zero: false,
         }
     }
 }
@@ -465,6 +474,14 @@ impl ProxPfEngine {
         }
         // Step 4: estimate
         let total: f64 = self.particles.iter().map(|p| p.w).sum();
+        // dead: weights were positive (w(0) > 0 or a Near reading) and all fell to 0
+        let had_weight = self.evidence || self.cfg.initial_weight > 0.0;
+        if total == 0.0 && had_weight && self.cfg.restart_when_all_zero {
+            // every likelihood is 0: no estimate now, start again from Step 1
+            self.stats.no_fix += 1;
+            self.initialise(floor);
+            return;
+        }
         let n = self.particles.len() as f64;
         let (mean, weights_used) = if !(self.informed || self.evidence) {
             (None, false)
@@ -786,6 +803,43 @@ mod tests {
         let before = zero.clone();
         stratified_resample(&mut rng, &mut zero);
         assert_eq!(zero, before);
+    }
+
+    #[test]
+    fn a_dead_cloud_restarts_from_step_1_only_when_asked() {
+        // every particle against the wall with weight 0 (the replica's seed
+        // 5 after a turn): as printed the cloud stays there for good; with
+        // `restart_when_all_zero` it is spread over the floor again
+        for restart in [false, true] {
+            let mut cfg = EngineConfig::default();
+            cfg.prox_pf.restart_when_all_zero = restart;
+            let mut e = ProxPfEngine::new(site(), &cfg, None).unwrap();
+            e.floor = Some(0);
+            e.evidence = true;
+            e.particles = vec![
+                Particle {
+                    pos: Vec2::new(9.9, 5.0),
+                    w: 0.0,
+                };
+                500
+            ];
+            e.step_once(1_000_000_000);
+            let xs: Vec<f64> = e.particles.iter().map(|p| p.pos.x).collect();
+            let spread = xs.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+                - xs.iter().cloned().fold(f64::INFINITY, f64::min);
+            if restart {
+                assert_eq!(e.particles.len(), 500);
+                assert!(spread > 10.0, "{spread}");
+                assert!(
+                    e.particles
+                        .iter()
+                        .all(|p| p.w == cfg.prox_pf.initial_weight)
+                );
+            } else {
+                assert_eq!(spread, 0.0);
+                assert!(e.particles.iter().all(|p| p.w == 0.0));
+            }
+        }
     }
 
     fn run(events: Vec<LogEvent>, seed: u64) -> ReplayOutput {

@@ -35,7 +35,8 @@ use crate::site::Site;
 /// Without a step for this long the walker is standing (speed 0), s.
 const STILL_AFTER_S: f64 = 1.5;
 
-/// After this many consecutive fingerprint fixes rejected by IGG3 the
+/// After this many consecutive fingerprint fixes rejected by IGG3 (a fix
+/// counts as rejected when either of its coordinates gets weight 0) the
 /// filter restarts at the fix (the robust gain would otherwise lock out a
 /// filter that has drifted away).
 const MAX_REJECTED_FIXES: u32 = 5;
@@ -53,6 +54,10 @@ pub struct RobustEkfEngine {
     p: DMatrix<f64>,
     initialised: bool,
     floor: i32,
+    /// The floor changed since the last fix (the floor tracker moved it in
+    /// the Fusion task): the position belongs to the old floor's database
+    /// and restarts at the next fix.
+    floor_changed: bool,
     last_predict_t_ns: Option<i64>,
     last_step_t_ns: Option<i64>,
     /// Consecutive fingerprint fixes IGG3 gave weight 0.
@@ -119,6 +124,7 @@ impl RobustEkfEngine {
             p,
             initialised,
             floor: start_floor,
+            floor_changed: false,
             last_predict_t_ns: None,
             last_step_t_ns: None,
             rejected_fixes: 0,
@@ -274,23 +280,31 @@ impl Engine for RobustEkfEngine {
                 });
                 if !self.initialised
                     || floor != self.floor
+                    || self.floor_changed
                     || self.rejected_fixes >= MAX_REJECTED_FIXES
                 {
                     self.rejected_fixes = 0;
-                    // first fix or floor change: restart the position there
+                    self.floor_changed = false;
+                    // first fix, floor change or lock-out: restart the position there
+                    self.predict(t_ns);
                     self.x[0] = pos.x;
                     self.x[1] = pos.y;
+                    // the new position is independent of speed and heading
+                    for i in 0..2 {
+                        for j in 0..4 {
+                            self.p[(i, j)] = 0.0;
+                            self.p[(j, i)] = 0.0;
+                        }
+                    }
                     self.p[(0, 0)] = self.cfg.fingerprint_sigma_m.powi(2);
                     self.p[(1, 1)] = self.cfg.fingerprint_sigma_m.powi(2);
-                    self.p[(0, 1)] = 0.0;
-                    self.p[(1, 0)] = 0.0;
                     self.initialised = true;
                     self.floor = floor;
                 } else {
                     self.predict(t_ns);
                     let var = self.cfg.fingerprint_sigma_m.powi(2);
                     let rep = self.update(&[(0, pos.x, var), (1, pos.y, var)]);
-                    if rep.is_some_and(|r| r.factors.iter().all(|f| *f == 0.0)) {
+                    if rep.is_some_and(|r| r.factors.contains(&0.0)) {
                         self.rejected_fixes += 1;
                     } else {
                         self.rejected_fixes = 0;
@@ -323,8 +337,11 @@ impl Engine for RobustEkfEngine {
                 }
                 if self.floors.has_pressure()
                     && let Some(f) = self.floors.floor()
+                    && f != self.floor
                 {
+                    // the position came from the old floor's database: restart at the next fix
                     self.floor = f;
+                    self.floor_changed = true;
                 }
                 self.update(&rows);
                 self.publish(t_ns);
@@ -523,6 +540,239 @@ mod tests {
         };
         assert!(a.is_some());
         assert_eq!(a, b);
+    }
+
+    /// Adverts (every 0.2 s, noise-free model RSSI, `bias` dB added) of the
+    /// floor-0 beacons at `truth(t)` and truth points every second, for
+    /// `t0 <= t < t0 + seconds` (s).
+    fn adverts_along(
+        truth: &dyn Fn(f64) -> Vec2,
+        t0: f64,
+        seconds: f64,
+        beacons: &[(usize, f64, f64)],
+        with_truth: bool,
+    ) -> Vec<LogEvent> {
+        let mut ev = Vec::new();
+        let n = (seconds * 5.0).round() as i64;
+        for k in 0..n {
+            let t = t0 + 0.2 * k as f64;
+            let t_ns = (t * 1e9).round() as i64;
+            let p = truth(t);
+            for &(i, x, y) in beacons {
+                let r = MODEL.rssi_at(range_m(p, Vec2::new(x, y), 0.0, 0.5), 0.5);
+                ev.push(LogEvent::Ble(BleObservation {
+                    t_ns,
+                    beacon_id: format!("mac:00:00:00:00:00:{i:02X}"),
+                    rssi_dbm: r,
+                    tx_power_dbm: None,
+                }));
+            }
+            if with_truth && k % 5 == 0 {
+                ev.push(LogEvent::Truth(TruthPoint {
+                    t_ns,
+                    x_m: p.x,
+                    y_m: p.y,
+                    floor: Some(0),
+                }));
+            }
+        }
+        ev
+    }
+
+    #[test]
+    fn a_filter_off_along_the_walking_direction_restarts_at_the_fixes() {
+        // Started 20 m east of the walker, who walks east: the fixes' x
+        // residual is an outlier (IGG3 weight 0) on every fix while their y
+        // agrees. Counting a fix as rejected only when *both* coordinates
+        // had weight 0 never restarted the filter: it stayed 20 m off for
+        // the whole walk (the replica's seed 2, 25 m mean error).
+        let init = InitialPosition {
+            x_m: 28.5,
+            y_m: 12.5,
+            floor: 0,
+            heading_rad: Some(0.0),
+        };
+        let mut e = RobustEkfEngine::new(site(), &EngineConfig::default(), Some(init)).unwrap();
+        let out = replay(&mut e, walk(0.0, 30));
+        let errs: Vec<f64> = out.scored.iter().filter_map(|s| s.error_m()).collect();
+        assert!(errs.len() >= 25);
+        let tail = &errs[errs.len() - 10..];
+        assert!(
+            tail.iter().all(|e| *e < 3.0),
+            "still off at the end of the walk: {errs:?}"
+        );
+    }
+
+    #[test]
+    fn a_floor_change_by_the_tracker_restarts_the_position_at_the_next_fix() {
+        // Floor-1 beacons (ids 0x10..) in the other half of the site. The
+        // phone hears them with the barometer's tracker on floor 1 (position
+        // from floor 1's database near (32, 6)); then the tracker moves to
+        // floor 0 (here by `reset_to_floor`, as its barometer/vote histogram
+        // does between two BLE tasks) and the phone hears the floor-0
+        // beacons around (6, 24). The position from floor 1's database must
+        // not survive that: the next floor-0 fix restarts it. Before, the
+        // Fusion task changed the floor without a restart and the BLE task,
+        // seeing no floor change, fed the fixes 28 m away to IGG3, which
+        // rejected them (the replica's seed 2: tracker on floor 1 at the
+        // first fix, on floor 0 0.2 s later, 25 m mean error).
+        let mut spec = site().spec.clone();
+        let up = [(32.0, 2.0), (38.0, 8.0), (26.0, 8.0), (32.0, 12.0)];
+        for (k, &(x, y)) in up.iter().enumerate() {
+            let mut b = spec.beacons[0].clone();
+            b.id = format!("mac:00:00:00:00:00:{:02X}", 0x10 + k);
+            b.floor = 1;
+            b.x_m = x;
+            b.y_m = y;
+            spec.beacons.push(b);
+        }
+        let site = Arc::new(Site {
+            spec,
+            floors: site().floors.clone(),
+        });
+        let upper: Vec<(usize, f64, f64)> = up
+            .iter()
+            .enumerate()
+            .map(|(k, &(x, y))| (0x10 + k, x, y))
+            .collect();
+        let lower: Vec<(usize, f64, f64)> = BEACONS
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| (i, x, y))
+            .collect();
+        let at_upper = |_: f64| Vec2::new(32.0, 6.0);
+        let at_lower = |_: f64| Vec2::new(6.0, 24.0);
+        let pressure = |t0: i64, n: i64| {
+            (0..n).map(move |k| {
+                LogEvent::Sensor(SensorEvent {
+                    t_ns: t0 + k * 100_000_000,
+                    data: SensorData::Pressure(1000.0),
+                })
+            })
+        };
+        let mut first = adverts_along(&at_upper, 0.0, 5.0, &upper, false);
+        first.extend(pressure(0, 50));
+        first.sort_by_key(LogEvent::t_ns);
+        let mut second = adverts_along(&at_lower, 5.0, 20.0, &lower, true);
+        second.extend(pressure(5_000_000_000, 200));
+        second.sort_by_key(LogEvent::t_ns);
+        let mut e = RobustEkfEngine::new(site, &EngineConfig::default(), None).unwrap();
+        e.floors.reset_to_floor(1);
+        replay(&mut e, first);
+        let up_pose = e.pose().unwrap();
+        assert_eq!(up_pose.floor, 1, "{up_pose:?}");
+        assert!((up_pose.x_m - 32.0).abs() < 4.0, "{up_pose:?}");
+        e.floors.reset_to_floor(0);
+        let out = replay(&mut e, second);
+        let mut on_floor_0_since: Option<i64> = None;
+        let mut worst_after = 0.0f64;
+        for sp in &out.scored {
+            let Some(pose) = sp.estimate else { continue };
+            if pose.floor != 0 {
+                on_floor_0_since = None;
+                continue;
+            }
+            let since = *on_floor_0_since.get_or_insert(sp.truth.t_ns);
+            if sp.truth.t_ns - since > 2_500_000_000 {
+                worst_after = worst_after.max(sp.error_m().unwrap_or(f64::INFINITY));
+            }
+        }
+        assert_eq!(e.pose().map(|p| p.floor), Some(0), "{:?}", e.pose());
+        assert!(on_floor_0_since.is_some());
+        assert!(
+            worst_after < 3.0,
+            "the position stayed on the old floor's fix: {worst_after} m; {:?}",
+            e.pose()
+        );
+    }
+
+    /// A walk east from (4, 5) for `east_s` seconds, then north (a sharp
+    /// 90-degree turn) for `north_s`: phone flat, top forward, 50 Hz
+    /// accelerometer and rotation vector, steps at 1.8 Hz of the length the
+    /// PDR measures on this signal; noise-free adverts every 0.2 s, truth
+    /// every second. Returns the events and the turn time (s).
+    fn l_walk(east_s: f64, north_s: f64) -> (Vec<LogEvent>, f64) {
+        use crate::engines::prox_pf::testkit::{STEP_HZ, STEP_M};
+        use crate::pdr::orientation::to_android;
+        use nalgebra::{UnitQuaternion, Vector3};
+        let v = STEP_HZ * STEP_M;
+        let corner = Vec2::new(4.0 + v * east_s, 5.0);
+        let truth = move |t: f64| {
+            if t < east_s {
+                Vec2::new(4.0 + v * t, 5.0)
+            } else {
+                corner + Vec2::new(0.0, v * (t - east_s))
+            }
+        };
+        let lower: Vec<(usize, f64, f64)> = BEACONS
+            .iter()
+            .enumerate()
+            .map(|(i, &(x, y))| (i, x, y))
+            .collect();
+        let mut ev = adverts_along(&truth, 0.0, east_s + north_s, &lower, true);
+        for i in 0..((east_s + north_s) * 50.0) as i64 {
+            let t_ns = i * 20_000_000;
+            let t = t_ns as f64 * 1e-9;
+            // top of the phone east (yaw 0) before the corner, north after
+            let turn = if t < east_s {
+                -std::f64::consts::FRAC_PI_2
+            } else {
+                0.0
+            };
+            let q = UnitQuaternion::from_axis_angle(&Vector3::z_axis(), turn);
+            let acc = [
+                0.0,
+                0.0,
+                9.81 + 2.5 * (std::f64::consts::TAU * STEP_HZ * t).sin(),
+            ];
+            ev.push(LogEvent::Sensor(SensorEvent {
+                t_ns,
+                data: SensorData::Accelerometer(acc),
+            }));
+            ev.push(LogEvent::Sensor(SensorEvent {
+                t_ns,
+                data: SensorData::RotationVector(to_android(&q)),
+            }));
+        }
+        ev.sort_by_key(LogEvent::t_ns);
+        (ev, east_s)
+    }
+
+    #[test]
+    fn the_heading_follows_a_turn() {
+        // A walker's 90-degree turn is not an outlier of the MEMS heading:
+        // with a heading random walk of 0.05 rad^2/s the prediction's sigma
+        // was ~0.25 rad, the turn's normalised residual ~6 > k1 and IGG3
+        // gave it weight 0 for ~5 s (8 steps): the filter walked on past
+        // the corner (the replica's turns, 4-6 m errors).
+        let (ev, turn_s) = l_walk(14.0, 14.0);
+        let mut e = RobustEkfEngine::new(site(), &EngineConfig::default(), None).unwrap();
+        let out = replay(&mut e, ev);
+        let t_turn = (turn_s * 1e9) as i64;
+        let after: Vec<(f64, f64)> = out
+            .track
+            .iter()
+            .filter(|p| p.t_ns > t_turn + 1_500_000_000)
+            .map(|p| {
+                (
+                    (p.t_ns - t_turn) as f64 * 1e-9,
+                    wrap_pi(p.heading_rad - std::f64::consts::FRAC_PI_2),
+                )
+            })
+            .collect();
+        assert!(after.len() > 20, "{}", after.len());
+        let bad: Vec<&(f64, f64)> = after.iter().filter(|(_, d)| d.abs() > 0.3).collect();
+        assert!(
+            bad.is_empty(),
+            "heading off north 1.5 s after the turn: {bad:?}"
+        );
+        // and it was east before the turn
+        let before = out
+            .track
+            .iter()
+            .filter(|p| p.t_ns > 5_000_000_000 && p.t_ns < t_turn)
+            .all(|p| wrap_pi(p.heading_rad).abs() < 0.3);
+        assert!(before);
     }
 
     #[test]

@@ -22,7 +22,13 @@ pub struct EkfConfig {
     pub q_pos_m2_per_s: f64,
     /// Process noise of speed per second, (m/s)^2/s. Default 0.5.
     pub q_speed_m2_per_s3: f64,
-    /// Process noise of heading per second, rad^2/s. Default 0.05.
+    /// robust-ekf: process noise of heading per second, rad^2/s. Default 2.0:
+    /// the heading state of eq. 20 is constant between observations, so a
+    /// walker's turn must fit in the prediction's spread or IGG3 rejects the
+    /// MEMS heading as an outlier. A 90-degree turn within one step (0.55 s)
+    /// keeps full weight (|u| <= k0 = 1.5) when (pi/2 / 1.5)^2 <= q * 0.55 s,
+    /// i.e. q >= 2.0. The paper gives no Q. (Was 0.05: every turn of the
+    /// replica walk was rejected for ~5 s, docs/reproduction.md.)
     pub q_heading_rad2_per_s: f64,
     /// Standard deviation of a fingerprint (WKNN) position, metres. Default 3.0.
     pub fingerprint_sigma_m: f64,
@@ -84,7 +90,7 @@ impl Default for EkfConfig {
             igg3_k1: 3.0,
             q_pos_m2_per_s: 0.5,
             q_speed_m2_per_s3: 0.5,
-            q_heading_rad2_per_s: 0.05,
+            q_heading_rad2_per_s: 2.0,
             fingerprint_sigma_m: 3.0,
             speed_sigma_mps: 0.2,
             heading_sigma_rad: 0.15,

@@ -127,6 +127,8 @@ pub struct WeightedCandidate {
     pub floor: i32,
     pub pos: Vec2,
     pub w: f64,
+    /// The candidate's RSSI distance from the query, dB.
+    pub dist_db: f64,
 }
 
 /// Where weighted candidates point: their heaviest floor (ties: the lower
@@ -396,6 +398,7 @@ impl ReferenceScans {
                 floor: c.floor,
                 pos: c.pos,
                 w: (-(c.dist_db - d0) / tau_db).exp(),
+                dist_db: c.dist_db,
             })
             .collect();
         let total: f64 = out.iter().map(|a| a.w).sum();

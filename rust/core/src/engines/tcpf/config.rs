@@ -131,6 +131,11 @@ pub struct AnchorConfig {
     /// With reference scans, the start waits up to this long (after the
     /// first radio update) for a query with candidates, s.
     pub start_wait_s: f64,
+    /// Far from the survey: when the closest reference scan is more than
+    /// this (RMS dB) from the phone's window, or none shares a heard
+    /// transmitter, the cloud is not re-seeded from the likelihood surface
+    /// (there the radio map is its own extrapolation). 0 = off.
+    pub far_db: f64,
     /// Re-seeding: when the cloud's support (its weighted mean of the
     /// mixture over the mixture's peak) stays below `reseed_support` for
     /// `reseed_after` radio updates, `reseed_fraction` of the particles
@@ -161,6 +166,7 @@ impl Default for AnchorConfig {
             floor_vote_share: 0.5,
             floor_force_votes: 5,
             start_wait_s: 5.0,
+            far_db: 12.0,
             reseed_support: 0.1,
             reseed_after: 3,
             reseed_fraction: 0.0,
@@ -180,6 +186,7 @@ impl AnchorConfig {
             ("weight", self.weight, 0.0, 100.0),
             ("start_weight", self.start_weight, 0.0, 100.0),
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
+            ("far_db", self.far_db, 0.0, 1000.0),
             ("floor_vote_share", self.floor_vote_share, 0.0, 1.0),
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),

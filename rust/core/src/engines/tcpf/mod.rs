@@ -83,6 +83,9 @@ pub struct TcpfCounts {
     /// around them.
     pub anchor_queries: u64,
     pub anchor_reseeded: u64,
+    /// Re-seedings not done: the phone far from the survey
+    /// (`anchors.far_db`).
+    pub reseed_far: u64,
 }
 
 /// One candidate place of the reference-scan query, with its weight
@@ -152,6 +155,9 @@ pub struct TcpfEngine {
     anchor_mean: Option<(i32, Vec2)>,
     /// The anchors' mixture per particle (reused buffer).
     anchor_buf: Vec<f64>,
+    /// RSSI distance of the closest reference scan at the last anchor
+    /// query (`None`: no scan shares a heard transmitter, or no query).
+    survey_dist_db: Option<f64>,
     /// Consecutive anchor floor votes for another floor.
     anchor_floor_run: Option<(i32, u32)>,
     /// Last time each model transmitter was heard (cached WiFi results
@@ -267,6 +273,7 @@ impl TcpfEngine {
             anchor_floor_run: None,
             anchor_mean: None,
             anchor_buf: Vec::new(),
+            survey_dist_db: None,
             last_heard: vec![i64::MIN; model.transmitters().len()],
             ble_active: false,
             wifi_active: false,
@@ -592,7 +599,14 @@ impl TcpfEngine {
         if check {
             self.radio_updates_since_check = 0;
         }
+        // far from every survey walk (with reference scans to tell) the
+        // surface is the radio map's extrapolation: no re-seeding from it
+        let far = self.far_from_survey();
+        if far && (reseed > 0.0 || check) {
+            self.counts.reseed_far += 1;
+        }
         if (reseed > 0.0 || check)
+            && !far
             && let Some((cells, w, lse, _)) = self.surface(floor, meas, missing, &[])
             && let gap = lse - w.iter().sum::<f64>().ln() - cloud_ll
             && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
@@ -618,6 +632,17 @@ impl TcpfEngine {
         }
         self.anchor_reseed(anchors, floor, support);
         self.update_floor(t_ns, meas, anchors);
+    }
+
+    /// Whether the phone is far from the survey: the model has reference
+    /// scans, `anchors.far_db` is set, and the last query's closest scan
+    /// was farther than that (or shared no transmitter).
+    fn far_from_survey(&self) -> bool {
+        let ac = &self.cfg.anchors;
+        ac.k > 0
+            && ac.far_db > 0.0
+            && self.model.reference_scans().is_some()
+            && self.survey_dist_db.is_none_or(|d| d > ac.far_db)
     }
 
     /// Re-seeds part of the cloud around the anchors of `floor` when its
@@ -674,6 +699,7 @@ impl TcpfEngine {
             return Vec::new();
         }
         let out = scans.weighted_query(&q, ac.k, ac.tau_db);
+        self.survey_dist_db = out.first().map(|a| a.dist_db);
         if out.is_empty() {
             return out;
         }

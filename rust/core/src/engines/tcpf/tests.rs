@@ -174,33 +174,36 @@ fn config_errors_name_the_field() {
     assert!(e.to_string().contains("tcpf.offset.prior_sd_db"), "{e}");
 }
 
-/// A two-floor copy of the test site whose radio map carries reference
-/// scans of the walk heard on floor 1 only, the walker's barometer level.
-fn two_floors_with_scans_on_1() -> (Arc<Site>, Arc<crate::radio::RadioMap>, Vec<LogEvent>) {
+/// The test site on `floors` copies of its walled map, with a radio map
+/// whose reference scans lie along the walk (x = 7) on `scan_floor`, each
+/// reading the path-loss model's RSSI plus `shift_db` (a survey the phone
+/// does not resemble when large).
+fn site_with_scans(
+    floors: usize,
+    scan_floor: i32,
+    shift_db: f64,
+) -> (Arc<Site>, Arc<crate::radio::RadioMap>) {
     use crate::radio::radio_map_file::{
         IdFile, KindFile, PathLossFile, RadioMapFile, ReferenceScansFile, TxFile,
     };
     use crate::radio::reference_scans::{ReferenceScan, ReferenceScanConfig};
     let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
-    let site = crate::site::testkit::beacon_site(
-        "two-floors",
-        vec![walled_map(), walled_map()],
-        &bs,
-        MODEL,
-    );
+    let site =
+        crate::site::testkit::beacon_site("two-floors", vec![walled_map(); floors], &bs, MODEL);
     let id = |k: usize| format!("mac:00:00:00:00:00:{k:02X}");
     let scans = (0..40)
         .map(|y| {
             let p = Vec2::new(7.0, y as f64);
             ReferenceScan {
-                floor: 1,
+                floor: scan_floor,
                 x_m: p.x,
                 y_m: p.y,
                 tx: beacons()
                     .iter()
                     .enumerate()
                     .map(|(k, b)| {
-                        let r = MODEL.rssi_at(crate::ble::pathloss::range_m(p, *b, 0.0, 0.5), 0.5);
+                        let r = MODEL.rssi_at(crate::ble::pathloss::range_m(p, *b, 0.0, 0.5), 0.5)
+                            + shift_db;
                         (k as u32, (r * 10.0).round() as i16)
                     })
                     .collect(),
@@ -211,7 +214,11 @@ fn two_floors_with_scans_on_1() -> (Arc<Site>, Arc<crate::radio::RadioMap>, Vec<
         format: crate::radio::radio_map_file::FORMAT.into(),
         version: crate::radio::radio_map_file::VERSION,
         site: "two-floors".into(),
-        fallback: Default::default(),
+        // the path-loss model's own spread (the file default is 8 dB)
+        fallback: crate::radio::radio_map::FallbackParams {
+            ble_sd_db: 6.0,
+            ..Default::default()
+        },
         transmitters: bs
             .iter()
             .enumerate()
@@ -243,6 +250,13 @@ fn two_floors_with_scans_on_1() -> (Arc<Site>, Arc<crate::radio::RadioMap>, Vec<
         }),
     };
     let map = Arc::new(crate::radio::RadioMap::from_file(&file, &site).unwrap());
+    (site, map)
+}
+
+/// A two-floor copy of the test site whose radio map carries reference
+/// scans of the walk heard on floor 1 only, the walker's barometer level.
+fn two_floors_with_scans_on_1() -> (Arc<Site>, Arc<crate::radio::RadioMap>, Vec<LogEvent>) {
+    let (site, map) = site_with_scans(2, 1, 0.0);
     let mut ev = walk_north(30, None);
     for i in 0..300 {
         ev.push(LogEvent::Sensor(SensorEvent {
@@ -290,4 +304,50 @@ fn anchors_move_a_wrong_start_floor_against_a_level_barometer() {
         TcpfEngine::with_model(site.clone(), &EngineConfig::default(), None, map.clone()).unwrap();
     let own = replay(&mut e, ev.iter().cloned());
     assert_eq!(own.track.first().map(|p| p.floor), Some(1));
+}
+
+#[test]
+fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
+    // the wrong start of `recovers_from_a_wrong_start_in_the_other_room`,
+    // with a radio map carrying reference scans along the walk: scans the
+    // phone resembles let the surface re-seed the cloud; scans 30 dB
+    // louder than anything heard say the phone is far from the survey,
+    // where the map is its own extrapolation: no re-seeding
+    let ev = walk_north(30, None);
+    let init = Some(InitialPosition {
+        x_m: 15.0,
+        y_m: 33.0,
+        floor: 0,
+        heading_rad: None,
+    });
+    let late_error = |out: &ReplayOutput| {
+        let late: Vec<f64> = out
+            .scored
+            .iter()
+            .filter(|s| s.truth.t_ns > 20_000_000_000)
+            .filter_map(|s| s.error_m())
+            .collect();
+        late.iter().sum::<f64>() / late.len().max(1) as f64
+    };
+    let run_with = |shift_db: f64, far_db: f64| {
+        let (site, map) = site_with_scans(1, 0, shift_db);
+        let mut cfg = EngineConfig::default();
+        cfg.tcpf.anchors.far_db = far_db;
+        let mut e = TcpfEngine::with_model(site, &cfg, init, map).unwrap();
+        let out = replay(&mut e, ev.iter().cloned());
+        (out, e.counts.reseeded, e.counts.reseed_far)
+    };
+    let (near, near_reseeded, near_far) = run_with(0.0, 12.0);
+    assert!(
+        near_reseeded > 0 && near_far == 0,
+        "{near_reseeded} {near_far}"
+    );
+    assert!(late_error(&near) < 3.0, "{:.1} m", late_error(&near));
+    let (far, far_reseeded, far_far) = run_with(30.0, 12.0);
+    assert_eq!(far_reseeded, 0);
+    assert!(far_far > 0);
+    assert!(late_error(&far) > 10.0, "{:.1} m", late_error(&far));
+    // the gate off: the same survey re-seeds
+    let (_, off_reseeded, _) = run_with(30.0, 0.0);
+    assert!(off_reseeded > 0);
 }

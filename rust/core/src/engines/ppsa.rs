@@ -12,8 +12,9 @@
 //!   (eq. 1 in the MCS, heading from +x); NLOS identification of every
 //!   beacon at X^ ([`crate::ble::nlos`], eqs. 2-10); n random particles
 //!   uniform in the disc of radius max(1.5 v dt, `min_radius_m`) around
-//!   X_{k-1} (Sec. 3.1), those on a wall or door dropped; selection in the
-//!   ring of the best LOS beacon (eqs. 11-14); score res = P1 + P2 (eqs.
+//!   X_{k-1} (Sec. 3.1), those on a wall dropped; selection in the location
+//!   ID (the room with the most LOS beacons, Sec. 3.3, [`select_in_area`])
+//!   and in the ring of the best LOS beacon (eqs. 11-14); score res = P1 + P2 (eqs.
 //!   15-22) with P1 = sum over LOS paths of A_j normpdf(RSSI_j, RSSI_ij,
 //!   sigma_LOS), A_j ~ 1/|delta_j|, and P2 = normpdf(alpha_i, alpha,
 //!   sigma_alpha) (only when the user walked); the best particle is the

@@ -12,8 +12,9 @@
 //!   (eq. 1 in the MCS, heading from +x); NLOS identification of every
 //!   beacon at X^ ([`crate::ble::nlos`], eqs. 2-10); n random particles
 //!   uniform in the disc of radius max(1.5 v dt, `min_radius_m`) around
-//!   X_{k-1} (Sec. 3.1), those on a wall or door dropped; selection in the
-//!   ring of the best LOS beacon (eqs. 11-14); score res = P1 + P2 (eqs.
+//!   X_{k-1} (Sec. 3.1), those on a wall dropped; selection in the location
+//!   ID (the room with the most LOS beacons, Sec. 3.3, [`select_in_area`])
+//!   and in the ring of the best LOS beacon (eqs. 11-14); score res = P1 + P2 (eqs.
 //!   15-22) with P1 = sum over LOS paths of A_j normpdf(RSSI_j, RSSI_ij,
 //!   sigma_LOS), A_j ~ 1/|delta_j|, and P2 = normpdf(alpha_i, alpha,
 //!   sigma_alpha) (only when the user walked); the best particle is the
@@ -294,6 +295,18 @@ impl PpsaEngine {
         let v = dist / self.cfg.slot_s;
         let radius = (self.cfg.radius_factor * v * self.cfg.slot_s).max(self.cfg.min_radius_m);
         let particles = self.generate(prev, radius, prev_floor);
+        // Sec. 3.3 / Sec. 2: the location ID (positionID) is the area holding
+        // the largest number of LOS beacons; particles outside it are dropped.
+        let los_pos: Vec<Vec2> = paths
+            .iter()
+            .filter(|p| p.los)
+            .map(|p| p.beacon.pos)
+            .collect();
+        let particles = select_in_area(
+            &particles,
+            super::prox_pf::floor_map(&self.site, prev_floor),
+            &los_pos,
+        );
         let best_los = paths
             .iter()
             .filter(|p| p.los)
@@ -415,6 +428,47 @@ impl PpsaEngine {
             }
         }
         best.map(|(_, x)| x)
+    }
+}
+
+/// Sec. 3.3 (location ID): the particles in the room (4-connected walkable
+/// area of `map`, doors and walls bounding it) that holds the largest number
+/// of the beacons in LOS (`los_beacons`; ties: the lower room id). The paper
+/// says the target has "the same positionID with the largest number of
+/// beacons in LOS" and that "according to the location ID, the particles
+/// outside the area can be filtered out". Not in the paper (fallbacks): no
+/// map, no LOS beacon in any room, or no particle in that room: every
+/// particle stays.
+pub fn select_in_area(
+    particles: &[Vec2],
+    map: Option<&crate::map::FloorMap>,
+    los_beacons: &[Vec2],
+) -> Vec<Vec2> {
+    let Some(map) = map else {
+        return particles.to_vec();
+    };
+    let mut counts: BTreeMap<crate::map::RoomId, usize> = BTreeMap::new();
+    for &b in los_beacons {
+        if let Some(r) = map.room_of(b) {
+            *counts.entry(r).or_insert(0) += 1;
+        }
+    }
+    let Some(room) = counts
+        .iter()
+        .max_by(|a, b| a.1.cmp(b.1).then(b.0.cmp(a.0)))
+        .map(|(&r, _)| r)
+    else {
+        return particles.to_vec();
+    };
+    let inside: Vec<Vec2> = particles
+        .iter()
+        .copied()
+        .filter(|&p| map.room_of(p) == Some(room))
+        .collect();
+    if inside.is_empty() {
+        particles.to_vec()
+    } else {
+        inside
     }
 }
 
@@ -567,6 +621,29 @@ mod tests {
             ps[..1].to_vec()
         );
         assert_eq!(select_in_ring(&ps, None, 1.9, 3.0), ps.to_vec());
+    }
+
+    #[test]
+    fn particles_outside_the_location_of_the_los_beacons_are_dropped() {
+        // 20 x 40 m, a wall at x = 10 m: two rooms
+        let map = walled_map();
+        let left = [Vec2::new(3.0, 3.0), Vec2::new(6.0, 7.0)];
+        let right = [Vec2::new(14.0, 5.0)];
+        let ps = [
+            Vec2::new(8.0, 5.0),
+            Vec2::new(12.0, 5.0),
+            Vec2::new(9.0, 2.0),
+            Vec2::new(11.0, 8.0),
+        ];
+        // two LOS beacons on the left, one on the right: the left room
+        let los: Vec<Vec2> = left.iter().chain(&right).copied().collect();
+        assert_eq!(
+            select_in_area(&ps, Some(&map), &los),
+            vec![Vec2::new(8.0, 5.0), Vec2::new(9.0, 2.0)]
+        );
+        // no map, or no LOS beacon: all stay
+        assert_eq!(select_in_area(&ps, None, &los), ps.to_vec());
+        assert_eq!(select_in_area(&ps, Some(&map), &[]), ps.to_vec());
     }
 
     #[test]

@@ -13,19 +13,9 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
+use fpbp_cli::json_patch::merge;
 use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task, build_engine};
 use fpbp_core::events::{LogEvent, TruthPoint};
-
-fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
-    match (base, patch) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
-            for (k, v) in p {
-                merge(b.entry(k.clone()).or_insert(serde_json::Value::Null), v);
-            }
-        }
-        (b, p) => *b = p.clone(),
-    }
-}
 
 fn truth_at(truth: &[TruthPoint], t: i64) -> Option<(f64, f64, Option<i32>)> {
     let i = truth.partition_point(|p| p.t_ns <= t);

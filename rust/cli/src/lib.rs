@@ -2,6 +2,7 @@
 //! share with the crate's examples (plots, site loading), so examples call
 //! them instead of keeping copies.
 
+pub mod json_patch;
 pub mod plan_draw;
 pub mod plot;
 pub mod replica_sites;

@@ -14,6 +14,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, bail};
+use fpbp_cli::json_patch::merge;
 use fpbp_core::engine::{EngineConfig, Task};
 use fpbp_core::site::Site;
 use fpbp_sim::SimRequest;
@@ -311,18 +312,6 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
         },
         other => bail!("unknown paper `{other}` (known: fpbp, prox-pf, ppsa, bmw, tc, all)"),
     })
-}
-
-/// Merges JSON object `patch` into `base` (objects recursively).
-fn merge(base: &mut serde_json::Value, patch: &serde_json::Value) {
-    match (base, patch) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(p)) => {
-            for (k, v) in p {
-                merge(b.entry(k.clone()).or_insert(serde_json::Value::Null), v);
-            }
-        }
-        (b, p) => *b = p.clone(),
-    }
 }
 
 fn config_for(spec: &PaperSpec, var: &Variant, seed: u64) -> anyhow::Result<EngineConfig> {

@@ -73,13 +73,21 @@ fn recovers_from_a_wrong_start_in_the_other_room() {
     // kidnapped cloud whose steps fit the map is not recovered by the
     // radio alone; docs/tcpf.md.)
     let ev = walk_north(30, None);
-    let init = Some(InitialPosition {
-        x_m: 15.0,
-        y_m: 33.0,
-        floor: 0,
-        heading_rad: None,
-    });
-    let out = run(&ev, init, &EngineConfig::default());
+    let out = run(&ev, Some(BEHIND_THE_WALL), &EngineConfig::default());
+    let m = error_after_20_s(&out);
+    assert!(m < 3.0, "error after 20 s {m:.2} m");
+}
+
+/// A wrong start behind the wall from the walk north at x = 7.
+const BEHIND_THE_WALL: InitialPosition = InitialPosition {
+    x_m: 15.0,
+    y_m: 33.0,
+    floor: 0,
+    heading_rad: None,
+};
+
+/// Mean error of the scored points after 20 s.
+fn error_after_20_s(out: &ReplayOutput) -> f64 {
     let late: Vec<f64> = out
         .scored
         .iter()
@@ -87,8 +95,7 @@ fn recovers_from_a_wrong_start_in_the_other_room() {
         .filter_map(|s| s.error_m())
         .collect();
     assert!(!late.is_empty());
-    let m = late.iter().sum::<f64>() / late.len() as f64;
-    assert!(m < 3.0, "error after 20 s {m:.2} m");
+    late.iter().sum::<f64>() / late.len() as f64
 }
 
 #[test]
@@ -314,21 +321,8 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     // louder than anything heard say the phone is far from the survey,
     // where the map is its own extrapolation: no re-seeding
     let ev = walk_north(30, None);
-    let init = Some(InitialPosition {
-        x_m: 15.0,
-        y_m: 33.0,
-        floor: 0,
-        heading_rad: None,
-    });
-    let late_error = |out: &ReplayOutput| {
-        let late: Vec<f64> = out
-            .scored
-            .iter()
-            .filter(|s| s.truth.t_ns > 20_000_000_000)
-            .filter_map(|s| s.error_m())
-            .collect();
-        late.iter().sum::<f64>() / late.len().max(1) as f64
-    };
+    let init = Some(BEHIND_THE_WALL);
+    let late_error = error_after_20_s;
     let run_with = |shift_db: f64, far_db: f64| {
         let (site, map) = site_with_scans(1, 0, shift_db);
         let mut cfg = EngineConfig::default();

@@ -65,6 +65,13 @@ pub struct TcpfConfig {
     /// The published point is held (not moved through a wall) for at most
     /// this many fusion runs before it follows the cloud anyway.
     pub max_hold_runs: u32,
+    /// The hold applies only when the last published pose claimed at most
+    /// this accuracy radius (m): a pose of a cloud spread over the floor
+    /// (the global start before the radio places it) says nowhere in
+    /// particular, so the point walks toward the first sharp estimate
+    /// (through the doors) at once instead of waiting `max_hold_runs`.
+    /// 0 = always hold.
+    pub hold_max_accuracy_m: f64,
     /// Accuracy radius: this quantile of the weighted particle distances
     /// from the published point, times `accuracy_scale`, at least
     /// `accuracy_min_m`.
@@ -233,6 +240,7 @@ impl Default for TcpfConfig {
             recovery_check_every: 0,
             floor_switch_votes: 3,
             max_hold_runs: 5,
+            hold_max_accuracy_m: 30.0,
             accuracy_quantile: 0.68,
             mode_bin_m: 0.0,
             accuracy_scale: 2.5,
@@ -308,6 +316,7 @@ impl TcpfConfig {
             ),
             ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
             ("mode_bin_m", self.mode_bin_m, 0.0, 100.0),
+            ("hold_max_accuracy_m", self.hold_max_accuracy_m, 0.0, 1e6),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
             ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
             (

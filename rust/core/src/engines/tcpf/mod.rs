@@ -836,6 +836,10 @@ impl TcpfEngine {
             let best = (0..ps.len()).max_by(|a, b| ws[*a].total_cmp(&ws[*b]).then(b.cmp(a)));
             return best.map(|i| ps[i]).or(Some(mean));
         };
+        let broad = self.cfg.hold_max_accuracy_m > 0.0
+            && self
+                .pose
+                .is_some_and(|p| p.accuracy_m > self.cfg.hold_max_accuracy_m);
         let ok = |q: Vec2| map.is_walkable(q) && !map.track_crosses_wall(prev, q);
         if ok(mean) {
             self.hold_runs = 0;
@@ -853,7 +857,7 @@ impl TcpfEngine {
             self.hold_runs = 0;
             return Some(ps[*i]);
         }
-        if self.hold_runs < self.cfg.max_hold_runs {
+        if self.hold_runs < self.cfg.max_hold_runs && !broad {
             self.hold_runs += 1;
             self.counts.held += 1;
             return Some(prev);

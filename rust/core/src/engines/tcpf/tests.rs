@@ -345,3 +345,42 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     let (_, off_reseeded, _) = run_with(30.0, 0.0);
     assert!(off_reseeded > 0);
 }
+
+/// A published pose of a cloud spread over the floor (the global start
+/// before the radio places it) is not held: the point goes toward the
+/// first sharp estimate at once, where a sharp pose would be held.
+#[test]
+fn a_broad_pose_is_not_held_behind_a_wall() {
+    let cfg = EngineConfig::default();
+    let hold = cfg.tcpf.hold_max_accuracy_m;
+    assert!(hold > 0.0);
+    let held_from = |accuracy_m: f64| {
+        let mut e = TcpfEngine::new(site(), &cfg, None).unwrap();
+        // the cloud behind the wall (x = 40-42 m), the last point before it
+        e.start_at(BEHIND_THE_WALL_EAST);
+        let prev = Vec2::new(10.0, 33.0);
+        e.published = Some(prev);
+        e.pose = Some(Pose {
+            t_ns: 0,
+            x_m: prev.x,
+            y_m: prev.y,
+            floor: 0,
+            heading_rad: 0.0,
+            accuracy_m,
+            floor_prob: 1.0,
+            source: PoseSource::Fused,
+        });
+        let next = e.estimate().unwrap();
+        (next - prev).norm() < 1e-9
+    };
+    assert!(held_from(3.0), "a sharp pose is held at the wall");
+    assert!(!held_from(hold + 1.0), "a broad pose is not held");
+}
+
+/// A start east of the walled map's wall (x = 40-42 m).
+const BEHIND_THE_WALL_EAST: InitialPosition = InitialPosition {
+    x_m: 60.0,
+    y_m: 33.0,
+    floor: 0,
+    heading_rad: None,
+};

@@ -94,6 +94,14 @@ pub struct ParticleFilter {
     heading_offset: Vec<f64>,
     /// Per-particle step-length scale (all 1 unless `step_scale_sd` > 0).
     step_scale: Vec<f64>,
+    /// One more scalar per particle that the owner of the filter keeps
+    /// (tcpf: the phone's RSSI offset, dB), carried along by resampling;
+    /// empty = none. Emptied by every (re)initialisation.
+    state: Vec<f64>,
+    scratch_state: Vec<f64>,
+    /// (particle, cell) of every draw of the last
+    /// [`ParticleFilter::init_from_cells`] / [`ParticleFilter::inject_from_cells`].
+    cell_draws: Vec<(usize, usize)>,
     scratch: Vec<Vec2>,
     scratch_offset: Vec<f64>,
     scratch_scale: Vec<f64>,
@@ -133,6 +141,9 @@ impl ParticleFilter {
             weights: Vec::with_capacity(count),
             heading_offset: Vec::with_capacity(count),
             step_scale: Vec::with_capacity(count),
+            state: Vec::new(),
+            scratch_state: Vec::new(),
+            cell_draws: Vec::new(),
             scratch: Vec::with_capacity(count),
             scratch_offset: Vec::with_capacity(count),
             scratch_scale: Vec::with_capacity(count),
@@ -175,6 +186,8 @@ impl ParticleFilter {
         self.weights.clear();
         self.heading_offset.clear();
         self.step_scale.clear();
+        self.state.clear();
+        self.cell_draws.clear();
         let w = 1.0 / self.count as f64;
         for _ in 0..self.count {
             let mut p = start;
@@ -457,6 +470,12 @@ impl ParticleFilter {
             std::mem::swap(&mut self.heading_offset, &mut self.scratch_offset);
             std::mem::swap(&mut self.step_scale, &mut self.scratch_scale);
         }
+        if self.state.len() == m {
+            self.scratch_state.clear();
+            self.scratch_state
+                .extend(src.iter().map(|&j| self.state[j]));
+            std::mem::swap(&mut self.state, &mut self.scratch_state);
+        }
         self.weights.iter_mut().for_each(|w| *w = inv_m);
     }
 
@@ -523,6 +542,9 @@ impl ParticleFilter {
                 if biases {
                     self.heading_offset[i] = self.heading_offset[src];
                     self.step_scale[i] = self.step_scale[src];
+                }
+                if self.state.len() == m {
+                    self.state[i] = self.state[src];
                 }
                 if self.accumulates_weights() {
                     self.weights[i] = self.weights[src];
@@ -608,7 +630,7 @@ impl ParticleFilter {
         cdf: &[f64],
         jitter_m: f64,
         accept: &impl Fn(Vec2) -> bool,
-    ) -> Vec2 {
+    ) -> (Vec2, usize) {
         let u: f64 = rng.random::<f64>();
         let k = cdf.partition_point(|&c| c < u).min(cells.len() - 1);
         let c = cells[k];
@@ -618,10 +640,10 @@ impl ParticleFilter {
                 jitter_m * (rng.random::<f64>() - 0.5),
             );
             if accept(q) {
-                return q;
+                return (q, k);
             }
         }
-        c
+        (c, k)
     }
 
     /// Cumulative distribution of `weights` (non-negative; uniform when
@@ -659,7 +681,9 @@ impl ParticleFilter {
         let first = cells[0];
         self.init_at(first, 0.0, |_| true);
         for i in 0..self.particles.len() {
-            self.particles[i] = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+            let (q, k) = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+            self.particles[i] = q;
+            self.cell_draws.push((i, k));
         }
     }
 
@@ -686,9 +710,12 @@ impl ParticleFilter {
         }
         let cdf = Self::cumulative(weights);
         let k = ((fraction.min(1.0) * m as f64).round() as usize).min(m);
+        self.cell_draws.clear();
         for _ in 0..k {
             let i = ((self.rng.random::<f64>() * m as f64) as usize).min(m - 1);
-            self.particles[i] = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+            let (q, c) = Self::draw_cell(&mut self.rng, cells, &cdf, jitter_m, &accept);
+            self.particles[i] = q;
+            self.cell_draws.push((i, c));
         }
         let u = 1.0 / m as f64;
         self.weights.iter_mut().for_each(|w| *w = u);
@@ -742,6 +769,42 @@ impl ParticleFilter {
     /// Per-particle step-length scales (same order as the particles).
     pub fn step_scales(&self) -> &[f64] {
         &self.step_scale
+    }
+
+    /// The owner's scalar per particle (same order as the particles;
+    /// empty until [`ParticleFilter::set_state`], and after every
+    /// (re)initialisation).
+    pub fn state(&self) -> &[f64] {
+        &self.state
+    }
+
+    /// Mutable access to the owner's scalars.
+    pub fn state_mut(&mut self) -> &mut [f64] {
+        &mut self.state
+    }
+
+    /// Sets the owner's scalar of every particle (`values` as long as the
+    /// particles; otherwise the state is emptied).
+    pub fn set_state(&mut self, values: Vec<f64>) {
+        self.state = if values.len() == self.particles.len() {
+            values
+        } else {
+            Vec::new()
+        };
+    }
+
+    /// (particle, cell index) of every draw of the last
+    /// [`ParticleFilter::init_from_cells`] or
+    /// [`ParticleFilter::inject_from_cells`], in draw order (a particle
+    /// drawn twice appears twice; the later draw holds).
+    pub fn cell_draws(&self) -> &[(usize, usize)] {
+        &self.cell_draws
+    }
+
+    /// One N(0, 1) draw from the filter's seeded RNG (for the owner's
+    /// per-particle state).
+    pub fn draw_normal(&mut self) -> f64 {
+        std_normal(&mut self.rng)
     }
 }
 
@@ -831,6 +894,40 @@ mod tests {
                 "{p:?} {o} is not a particle of before"
             );
         }
+    }
+
+    #[test]
+    fn the_owners_state_stays_with_its_particles_and_cell_draws_are_recorded() {
+        let mut pf = filter(400, Resampling::Systematic, 3);
+        let cells = [
+            Vec2::new(0.0, 0.0),
+            Vec2::new(10.0, 0.0),
+            Vec2::new(0.0, 10.0),
+        ];
+        pf.init_from_cells(&cells, &[1.0, 2.0, 3.0], 1.0, |_| true);
+        assert!(pf.state().is_empty());
+        let draws = pf.cell_draws().to_vec();
+        assert_eq!(draws.len(), 400);
+        for (i, c) in &draws {
+            assert!((pf.particles()[*i] - cells[*c]).norm() < 0.8);
+        }
+        // the state: the index of the cell each particle came from
+        pf.set_state(draws.iter().map(|(_, c)| *c as f64).collect());
+        pf.weight(Vec2::new(10.0, 0.0));
+        pf.resample();
+        pf.replace_invalid(|p| p.y > 5.0, Vec2::zeros());
+        for (p, s) in pf.particles().iter().zip(pf.state()) {
+            assert!((p - cells[*s as usize]).norm() < 0.8, "{p:?} {s}");
+        }
+        // re-seeding records its draws; a wrong length empties the state
+        let n = pf.inject_from_cells(0.25, &cells[2..], &[1.0], 1.0, |_| true);
+        assert_eq!(pf.cell_draws().len(), n);
+        assert!(pf.cell_draws().iter().all(|(_, c)| *c == 0));
+        pf.set_state(vec![0.0; 3]);
+        assert!(pf.state().is_empty());
+        pf.set_state(vec![1.0; 400]);
+        pf.init_at(Vec2::zeros(), 1.0, |_| true);
+        assert!(pf.state().is_empty() && pf.cell_draws().is_empty());
     }
 
     fn offset_stats(pf: &ParticleFilter) -> (f64, Vec<f64>) {

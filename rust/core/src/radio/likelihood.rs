@@ -205,6 +205,14 @@ pub struct CloudLikelihood {
     sd_prod: Vec<f64>,
 }
 
+/// The phone offset of a [`CloudLikelihood`] evaluation: one for the
+/// whole cloud, or each particle's own.
+#[derive(Debug, Clone, Copy)]
+enum Offsets<'a> {
+    One(f64),
+    Each(&'a [f64]),
+}
+
 /// Transmitters per product in [`CloudLikelihood::evaluate`]: a factor
 /// 1 + z^2/nu overflows 8 at a time only for |z| > 1e19.
 pub const PRODUCT_TERMS: usize = 8;
@@ -229,6 +237,37 @@ impl CloudLikelihood {
         offset_db: f64,
         out: &mut Vec<f64>,
     ) {
+        self.evaluate_with(model, cfg, meas, floor, ps, Offsets::One(offset_db), out);
+    }
+
+    /// [`CloudLikelihood::evaluate`] with each particle's own phone offset
+    /// (`offsets_db[i]` for `ps[i]`, same length).
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate_each(
+        &mut self,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offsets_db: &[f64],
+        out: &mut Vec<f64>,
+    ) {
+        assert_eq!(offsets_db.len(), ps.len(), "one offset per particle");
+        self.evaluate_with(model, cfg, meas, floor, ps, Offsets::Each(offsets_db), out);
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_with(
+        &mut self,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offsets: Offsets<'_>,
+        out: &mut Vec<f64>,
+    ) {
         let n = ps.len();
         self.n = n;
         self.known.clear();
@@ -251,22 +290,48 @@ impl CloudLikelihood {
             if !known || n == 0 {
                 continue;
             }
-            let r = m.rssi_dbm - offset_db;
             let sd0 = sd[0];
-            if sd.iter().all(|s| *s == sd0) {
-                let inv = 1.0 / sd0;
-                ln_sd_sum += sd0.ln();
-                for (q, mu) in self.prod.iter_mut().zip(mean.iter()) {
-                    let z = (r - mu) * inv;
-                    *q *= 1.0 + z * z * inv_nu;
+            let same_sd = sd.iter().all(|s| *s == sd0);
+            match offsets {
+                Offsets::One(offset_db) => {
+                    let r = m.rssi_dbm - offset_db;
+                    if same_sd {
+                        let inv = 1.0 / sd0;
+                        ln_sd_sum += sd0.ln();
+                        for (q, mu) in self.prod.iter_mut().zip(mean.iter()) {
+                            let z = (r - mu) * inv;
+                            *q *= 1.0 + z * z * inv_nu;
+                        }
+                    } else {
+                        sd_varies = true;
+                        let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
+                        for ((q, qs), (mu, s)) in it.zip(mean.iter().zip(sd.iter())) {
+                            let z = (r - mu) / s;
+                            *q *= 1.0 + z * z * inv_nu;
+                            *qs *= s;
+                        }
+                    }
                 }
-            } else {
-                sd_varies = true;
-                let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
-                for ((q, qs), (mu, s)) in it.zip(mean.iter().zip(sd.iter())) {
-                    let z = (r - mu) / s;
-                    *q *= 1.0 + z * z * inv_nu;
-                    *qs *= s;
+                Offsets::Each(offs) => {
+                    let r = m.rssi_dbm;
+                    if same_sd {
+                        let inv = 1.0 / sd0;
+                        ln_sd_sum += sd0.ln();
+                        let it = self.prod.iter_mut().zip(mean.iter());
+                        for ((q, mu), o) in it.zip(offs) {
+                            let z = (r - o - mu) * inv;
+                            *q *= 1.0 + z * z * inv_nu;
+                        }
+                    } else {
+                        sd_varies = true;
+                        let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
+                        let it = it.zip(mean.iter().zip(sd.iter())).zip(offs);
+                        for (((q, qs), (mu, s)), o) in it {
+                            let z = (r - o - mu) / s;
+                            *q *= 1.0 + z * z * inv_nu;
+                            *qs *= s;
+                        }
+                    }
                 }
             }
             terms += 1;
@@ -350,7 +415,9 @@ pub fn missing_log_likelihood(
 
 /// The phone offset that best explains `meas` at `p` under a Gaussian
 /// prior N(`prior_db`, `prior_sd_db`^2) (least squares of the residuals
-/// weighted by 1/sd^2), and the untempered log-likelihood there. Used where
+/// weighted by 1/sd^2), the untempered log-likelihood there, and the
+/// offset's posterior standard deviation (1 / sqrt(1/prior_sd^2 + sum
+/// 1/sd_k^2), dB). Used where
 /// no offset is known yet (the global start, re-seeding): each candidate
 /// position gets its own best offset.
 pub fn profiled(
@@ -361,7 +428,7 @@ pub fn profiled(
     p: Vec2,
     prior_db: f64,
     prior_sd_db: f64,
-) -> (f64, f64) {
+) -> (f64, f64, f64) {
     let ip = 1.0 / (prior_sd_db * prior_sd_db).max(1e-6);
     let (mut num, mut den) = (prior_db * ip, ip);
     for m in meas {
@@ -376,6 +443,7 @@ pub fn profiled(
     (
         o,
         log_likelihood(model, cfg, meas, floor, p, o) - 0.5 * z0 * z0,
+        1.0 / den.sqrt(),
     )
 }
 
@@ -430,10 +498,10 @@ mod tests {
         ] {
             assert!(log_likelihood(&m, &cfg, &meas, 0, q, -8.0) < l_true);
         }
-        let (o, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 100.0);
+        let (o, _, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 100.0);
         assert!((o + 8.0).abs() < 0.01, "{o}");
         // a tight prior pulls it back towards 0
-        let (o2, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 1.0);
+        let (o2, _, _) = profiled(&m, &cfg, &meas, 0, at, 0.0, 1.0);
         assert!(o2 > -8.0 && o2 < 0.0);
     }
 
@@ -511,6 +579,15 @@ mod tests {
                     worst = worst.max((l - exact).abs());
                 }
                 assert!(worst < 1e-6, "model {k}, {n_heard} heard: {worst}");
+                // each particle with its own offset
+                let offs: Vec<f64> = (0..ps.len()).map(|i| -9.0 + (i % 7) as f64).collect();
+                let mut each = Vec::new();
+                cloud.evaluate_each(model, &cfg, &meas, 0, &ps, &offs, &mut each);
+                for ((p, l), o) in ps.iter().zip(&each).zip(&offs) {
+                    let exact = log_likelihood(model, &cfg, &meas, 0, *p, *o);
+                    assert!((l - exact).abs() < 1e-6, "{l} {exact}");
+                }
+                cloud.evaluate(model, &cfg, &meas, 0, &ps, -5.0, &mut out);
                 // the residual sums are those of `expected`
                 let w: Vec<f64> = (0..ps.len()).map(|i| 1.0 + (i % 3) as f64).collect();
                 for (j, mm) in meas.iter().enumerate() {

@@ -9,6 +9,14 @@
 //! between updates. Transmitters whose expected RSSI at the estimate lies
 //! below `min_expected_dbm` are left out: near the receiver's floor only the
 //! lucky strong readings are heard (censoring), which would bias o upwards.
+//!
+//! With `per_particle` (a switch, off by default: it cost ILC F1 and IPIN
+//! odd 0.1-0.2 m, docs/tcpf.md "Two phones") tcpf does not use this observation:
+//! each particle carries its own offset, the likelihood uses it, and the
+//! belief here only summarises the particles (weighted mean and sd) for the
+//! stats, the anchors' query and (re)initialisations at a point. One offset
+//! fed by a possibly wrong cloud settled in a self-consistent wrong mode for
+//! a phone 9 dB weaker (docs/tcpf.md "Two phones").
 
 use serde::{Deserialize, Serialize};
 
@@ -34,6 +42,23 @@ pub struct OffsetConfig {
     pub min_expected_dbm: f64,
     /// At least this many usable transmitters per observation.
     pub min_transmitters: usize,
+    /// Each particle carries its own offset (drawn at the start and on
+    /// re-seeding from the offset profiled at its cell, random-walking by
+    /// `particle_walk_db_per_sqrt_s`), and the likelihood uses it: position
+    /// and offset are resolved jointly. The reported offset is the
+    /// particles' weighted mean; the median-residual observation above is
+    /// not used (false: one offset for the whole cloud).
+    pub per_particle: bool,
+    /// Random walk of each particle's offset, dB per sqrt(second).
+    pub particle_walk_db_per_sqrt_s: f64,
+    /// A particle drawn from a cell at a start or re-seeding gets the
+    /// cell's profiled offset plus this times its posterior sd times
+    /// N(0, 1).
+    pub particle_start_spread: f64,
+    /// Re-seeded particles profile their offset under the prior
+    /// (`prior_db`, `prior_sd_db`) rather than the cloud's current belief
+    /// (a lost cloud's offset is not to be trusted).
+    pub reseed_from_prior: bool,
 }
 
 impl Default for OffsetConfig {
@@ -48,6 +73,10 @@ impl Default for OffsetConfig {
             noise_floor_db: 3.0,
             min_expected_dbm: -88.0,
             min_transmitters: 2,
+            per_particle: false,
+            particle_walk_db_per_sqrt_s: 0.15,
+            reseed_from_prior: false,
+            particle_start_spread: 0.0,
         }
     }
 }
@@ -63,6 +92,18 @@ impl OffsetConfig {
             ("noise_scale", self.noise_scale, 0.0, 100.0),
             ("noise_floor_db", self.noise_floor_db, 0.01, 40.0),
             ("min_expected_dbm", self.min_expected_dbm, -200.0, 0.0),
+            (
+                "particle_walk_db_per_sqrt_s",
+                self.particle_walk_db_per_sqrt_s,
+                0.0,
+                10.0,
+            ),
+            (
+                "particle_start_spread",
+                self.particle_start_spread,
+                0.0,
+                10.0,
+            ),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return Err(crate::Error::config(
@@ -112,6 +153,11 @@ impl PhoneOffset {
     /// Its standard deviation, dB.
     pub fn sd_db(&self) -> f64 {
         self.var_db2.sqrt()
+    }
+
+    /// The settings.
+    pub fn config(&self) -> &OffsetConfig {
+        &self.cfg
     }
 
     /// Sets the belief (e.g. the offset profiled at a global start) with

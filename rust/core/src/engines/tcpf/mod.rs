@@ -14,7 +14,9 @@
 //!   last run move the particles (each with its own heading offset and step
 //!   scale); a move through a wall kills the particle (doors pass); the
 //!   pending measurement set weighs them; the phone's RSSI offset is updated
-//!   from the residuals ([`crate::radio::PhoneOffset`]); ESS resampling;
+//!   from the residuals ([`crate::radio::PhoneOffset`]; with
+//!   `offset.per_particle` each particle carries its own, drawn at the start
+//!   and on re-seeding from the offset profiled at its cell); ESS resampling;
 //!   augmented-MCL re-seeding from the likelihood surface when the cloud has
 //!   lost the radio; the published point never jumps through a wall (it
 //!   walks toward the cloud through the doors, [`FloorMap::walk_toward`]).
@@ -23,7 +25,10 @@
 //! from the first measurement set, drawn over the walkable area of the most
 //! likely floor in proportion to the likelihood with the phone offset
 //! profiled per cell (a global start: the first pose comes with the first
-//! radio update, with an accuracy radius as wide as the cloud).
+//! radio update, with an accuracy radius as wide as the cloud); with
+//! `offset.per_particle` each particle keeps its cell's offset, so a weak
+//! phone near the beacons and a normal one far from them both stay in the
+//! cloud until the walk tells them apart.
 
 pub mod config;
 
@@ -98,6 +103,18 @@ struct RadioSet {
     meas: Vec<Measurement>,
     missing: Vec<(usize, f64)>,
     anchors: Vec<Anchor>,
+}
+
+/// A likelihood surface over the cells of a floor (tempered): cell
+/// weights exp(alpha l - max), their log-sum-exp, the weighted mean of the
+/// offsets profiled per cell, and per cell that offset and its sd (dB).
+struct Surface {
+    cells: Vec<Vec2>,
+    w: Vec<f64>,
+    lse: f64,
+    offset_db: f64,
+    cell_offset_db: Vec<f64>,
+    cell_offset_sd_db: Vec<f64>,
 }
 
 /// The cloud's weighted mean of the anchors' mixture (`mix`, one value
@@ -190,6 +207,8 @@ pub struct TcpfEngine {
     heading_rad: f64,
     pose: Option<Pose>,
     last_radio_t_ns: Option<i64>,
+    /// Last random walk of the per-particle offsets.
+    last_offset_walk_t_ns: Option<i64>,
     /// First radio update before the start, and how many floors have beacons.
     first_radio_t_ns: Option<i64>,
     beacon_floors: usize,
@@ -292,6 +311,7 @@ impl TcpfEngine {
             heading_rad: 0.0,
             pose: None,
             last_radio_t_ns: None,
+            last_offset_walk_t_ns: None,
             first_radio_t_ns: None,
             beacon_floors: model
                 .transmitters()
@@ -347,34 +367,39 @@ impl TcpfEngine {
         };
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
+        self.draw_offsets_from_belief();
         self.monitor.reset();
         self.published = Some(p);
         self.hold_runs = 0;
     }
 
-    /// Likelihood surface of `meas` over the cells of `floor`, tempered:
-    /// (cells, weights exp(alpha l - max), log-sum-exp, weighted offset).
+    /// Likelihood surface of `meas` over the cells of `floor`, tempered,
+    /// with the offset profiled per cell under N(`prior.0`, `prior.1`^2)
+    /// (dB).
     fn surface(
         &self,
         floor: i32,
         meas: &[Measurement],
         missing: &[(usize, f64)],
         anchors: &[Anchor],
-    ) -> Option<(Vec<Vec2>, Vec<f64>, f64, f64)> {
+        prior: (f64, f64),
+    ) -> Option<Surface> {
         let cells = self.cells.get(&floor)?;
         if cells.is_empty() || meas.is_empty() {
             return None;
         }
         let lc = &self.cfg.likelihood;
         let alpha = lc.alpha(meas.len());
-        let (o0, sd0) = (self.offset.mean_db(), self.offset.sd_db());
+        let (o0, sd0) = prior;
         let mut ll = Vec::with_capacity(cells.len());
         let mut offs = Vec::with_capacity(cells.len());
+        let mut sds = Vec::with_capacity(cells.len());
         for c in cells {
-            let (o, l) = profiled(self.model.as_ref(), lc, meas, floor, *c, o0, sd0);
+            let (o, l, sd) = profiled(self.model.as_ref(), lc, meas, floor, *c, o0, sd0);
             let miss = missing_log_likelihood(self.model.as_ref(), lc, missing, floor, *c, o);
             ll.push(alpha * (l + miss));
             offs.push(o);
+            sds.push(sd);
         }
         let ac = &self.cfg.anchors;
         if !anchors.is_empty() && ac.start_weight > 0.0 {
@@ -389,8 +414,107 @@ impl TcpfEngine {
         }
         let w: Vec<f64> = ll.iter().map(|l| (l - max).exp()).collect();
         let sum: f64 = w.iter().sum();
-        let o = w.iter().zip(&offs).map(|(w, o)| w * o).sum::<f64>() / sum;
-        Some((cells.clone(), w, max + sum.ln(), o))
+        let offset_db = w.iter().zip(&offs).map(|(w, o)| w * o).sum::<f64>() / sum;
+        Some(Surface {
+            cells: cells.clone(),
+            w,
+            lse: max + sum.ln(),
+            offset_db,
+            cell_offset_db: offs,
+            cell_offset_sd_db: sds,
+        })
+    }
+
+    /// The prior of the offset profiled at a start or re-seeding: the
+    /// current belief, or with per-particle offsets and
+    /// `offset.reseed_from_prior` on a re-seeding, the configured prior.
+    fn profile_prior(&self, reseed: bool) -> (f64, f64) {
+        let oc = self.offset.config();
+        if reseed && oc.per_particle && oc.reseed_from_prior {
+            (oc.prior_db, oc.prior_sd_db)
+        } else {
+            (self.offset.mean_db(), self.offset.sd_db())
+        }
+    }
+
+    /// Whether each particle carries its own offset.
+    fn per_particle_offset(&self) -> bool {
+        let oc = self.offset.config();
+        oc.enabled && oc.per_particle
+    }
+
+    /// Per-particle offsets: every particle's drawn from N(mean, (k sd)^2)
+    /// of the current belief, k = `offset.particle_start_spread` (after an
+    /// init at a point).
+    fn draw_offsets_from_belief(&mut self) {
+        if !self.per_particle_offset() {
+            return;
+        }
+        let (o, sd) = (self.offset.mean_db(), self.offset.sd_db());
+        let sd = sd * self.offset.config().particle_start_spread;
+        let m = self.offset.config().max_abs_db;
+        let n = self.pf.particles().len();
+        let v: Vec<f64> = (0..n)
+            .map(|_| (o + sd * self.pf.draw_normal()).clamp(-m, m))
+            .collect();
+        self.pf.set_state(v);
+    }
+
+    /// Per-particle offsets of the particles the last cell draw placed:
+    /// each from N(its cell's profiled offset, that offset's sd^2).
+    fn draw_offsets_from_cells(&mut self, s: &Surface) {
+        if !self.per_particle_offset() {
+            return;
+        }
+        let n = self.pf.particles().len();
+        if self.pf.state().len() != n {
+            let o = self.offset.mean_db();
+            self.pf.set_state(vec![o; n]);
+        }
+        let m = self.offset.config().max_abs_db;
+        let k = self.offset.config().particle_start_spread;
+        let draws = self.pf.cell_draws().to_vec();
+        for (i, c) in draws {
+            let z = self.pf.draw_normal();
+            let o = (s.cell_offset_db[c] + k * s.cell_offset_sd_db[c] * z).clamp(-m, m);
+            self.pf.state_mut()[i] = o;
+        }
+    }
+
+    /// The weighted mean and sd of the particles' offsets into the
+    /// reported belief.
+    fn summarise_offsets(&mut self) {
+        let (os, ws) = (self.pf.state(), self.pf.weights());
+        if os.len() != ws.len() || os.is_empty() {
+            return;
+        }
+        let wsum: f64 = ws.iter().sum();
+        if wsum <= 0.0 {
+            return;
+        }
+        let mean = os.iter().zip(ws).map(|(o, w)| o * w).sum::<f64>() / wsum;
+        let var = os
+            .iter()
+            .zip(ws)
+            .map(|(o, w)| w * (o - mean) * (o - mean))
+            .sum::<f64>()
+            / wsum;
+        self.offset.set(mean, var.sqrt().max(0.05));
+    }
+
+    /// The random walk of every particle's offset over `dt_s`.
+    fn walk_offsets(&mut self, dt_s: f64) {
+        let oc = self.offset.config();
+        let sd = oc.particle_walk_db_per_sqrt_s * dt_s.max(0.0).sqrt();
+        let m = oc.max_abs_db;
+        if sd <= 0.0 || self.pf.state().is_empty() {
+            return;
+        }
+        for i in 0..self.pf.state().len() {
+            let z = self.pf.draw_normal();
+            let o = &mut self.pf.state_mut()[i];
+            *o = (*o + sd * z).clamp(-m, m);
+        }
     }
 
     /// The floor of the strongest beacons heard: the floor most of the
@@ -429,11 +553,15 @@ impl TcpfEngine {
             Some(f) => vec![f],
             None => self.site.spec.floors.iter().map(|f| f.id).collect(),
         };
+        let prior = self.profile_prior(false);
         let best = floors
             .into_iter()
-            .filter_map(|f| self.surface(f, meas, missing, anchors).map(|s| (f, s)))
-            .max_by(|a, b| a.1.2.total_cmp(&b.1.2).then(b.0.cmp(&a.0)));
-        let Some((f, (cells, w, _, o))) = best else {
+            .filter_map(|f| {
+                self.surface(f, meas, missing, anchors, prior)
+                    .map(|s| (f, s))
+            })
+            .max_by(|a, b| a.1.lse.total_cmp(&b.1.lse).then(b.0.cmp(&a.0)));
+        let Some((f, surf)) = best else {
             return false;
         };
         self.floor = f;
@@ -441,10 +569,13 @@ impl TcpfEngine {
         self.other_floor = None;
         let site = Arc::clone(&self.site);
         let map = site.floor(f);
-        self.pf.init_from_cells(&cells, &w, self.cfg.cell_m, |q| {
-            map.is_none_or(|m| m.is_walkable(q))
-        });
-        self.offset.set(o, self.offset.sd_db());
+        self.pf
+            .init_from_cells(&surf.cells, &surf.w, self.cfg.cell_m, |q| {
+                map.is_none_or(|m| m.is_walkable(q))
+            });
+        self.offset.set(surf.offset_db, self.offset.sd_db());
+        self.draw_offsets_from_cells(&surf);
+        self.summarise_offsets();
         self.monitor.reset();
         self.low_support = 0;
         self.published = None;
@@ -515,8 +646,21 @@ impl TcpfEngine {
         // untempered log-likelihood per particle first; each transmitter's
         // expected RSSI per particle is kept for the residuals below
         let mut cloud = CloudLikelihood::default();
+        let per_particle = self.per_particle_offset() && !self.pf.state().is_empty();
+        if per_particle {
+            let dt_s = self
+                .last_offset_walk_t_ns
+                .map_or(0.0, |t0| (t_ns - t0).max(0) as f64 * 1e-9);
+            self.walk_offsets(dt_s);
+        }
+        self.last_offset_walk_t_ns = Some(t_ns);
         let ps = self.pf.particles();
-        cloud.evaluate(model.as_ref(), &lc, meas, floor, ps, o, &mut self.log_l);
+        if per_particle {
+            let os = self.pf.state();
+            cloud.evaluate_each(model.as_ref(), &lc, meas, floor, ps, os, &mut self.log_l);
+        } else {
+            cloud.evaluate(model.as_ref(), &lc, meas, floor, ps, o, &mut self.log_l);
+        }
         for (u, p) in self.log_l.iter_mut().zip(ps) {
             let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
             mean_l += (*u / m).exp();
@@ -578,7 +722,11 @@ impl TcpfEngine {
                 (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
             })
             .collect();
-        self.offset.observe(t_ns, &residuals);
+        if per_particle {
+            self.summarise_offsets();
+        } else {
+            self.offset.observe(t_ns, &residuals);
+        }
         self.pf.resample_if_degenerate();
         let reseed = self.monitor.update(
             mean_l,
@@ -607,8 +755,8 @@ impl TcpfEngine {
         }
         if (reseed > 0.0 || check)
             && !far
-            && let Some((cells, w, lse, _)) = self.surface(floor, meas, missing, &[])
-            && let gap = lse - w.iter().sum::<f64>().ln() - cloud_ll
+            && let Some(surf) = self.surface(floor, meas, missing, &[], self.profile_prior(true))
+            && let gap = surf.lse - surf.w.iter().sum::<f64>().ln() - cloud_ll
             && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
                 Some(self.cfg.recovery_max_fraction)
             } else {
@@ -625,9 +773,10 @@ impl TcpfEngine {
             let map = site.floor(floor);
             let n = self
                 .pf
-                .inject_from_cells(reseed, &cells, &w, self.cfg.cell_m, |q| {
+                .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
                     map.is_none_or(|m| m.is_walkable(q))
                 });
+            self.draw_offsets_from_cells(&surf);
             self.counts.reseeded += n as u64;
         }
         self.anchor_reseed(anchors, floor, support);
@@ -675,6 +824,15 @@ impl TcpfEngine {
             .inject_from_cells(ac.reseed_fraction, &cells, &w, 2.0 * ac.sigma_m, |q| {
                 map.is_none_or(|m| m.is_walkable(q))
             });
+        if self.per_particle_offset() && !self.pf.state().is_empty() {
+            let (o, sd) = (self.offset.mean_db(), self.offset.sd_db());
+            let m = self.offset.config().max_abs_db;
+            let draws = self.pf.cell_draws().to_vec();
+            for (i, _) in draws {
+                let z = self.pf.draw_normal();
+                self.pf.state_mut()[i] = (o + sd * z).clamp(-m, m);
+            }
+        }
         self.counts.anchor_reseeded += n as u64;
     }
 
@@ -772,6 +930,7 @@ impl TcpfEngine {
             (Some(p), Some(m)) if m.is_walkable(p) => {
                 self.floor = f;
                 self.pf.init_at(p, 3.0, |q| m.is_walkable(q));
+                self.draw_offsets_from_belief();
                 self.monitor.reset();
                 self.published = Some(p);
             }

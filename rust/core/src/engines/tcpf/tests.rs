@@ -57,6 +57,13 @@ fn learns_a_phone_offset_and_reports_it() {
     assert!((o + 9.0).abs() < 2.5, "offset {o:.2} dB");
     let err = mean_error(&out);
     assert!(err < 4.5, "mean error {err:.2} m");
+    // each particle with its own offset
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.offset.per_particle = true;
+    let each = run(&ev, None, &cfg);
+    let o = each.stats.rssi_offset_db.unwrap();
+    assert!((o + 9.0).abs() < 2.5, "per particle: {o:.2} dB");
+    assert!(mean_error(&each) < 4.5, "{:.2} m", mean_error(&each));
     let mut cfg = EngineConfig::default();
     cfg.tcpf.offset.enabled = false;
     let fixed = run(&ev, None, &cfg);

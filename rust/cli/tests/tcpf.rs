@@ -40,14 +40,14 @@ fn at(track: &[Pose], t_ns: i64) -> Option<Pose> {
 /// (readings pushed below `min_rssi_dbm` = -100 dBm are lost, as a weaker
 /// phone loses them): issue 16's "same track within 1 m after the offset
 /// converges", as the median separation of the two tracks after 60 s over
-/// six simulated walks. Met only with `offset.per_particle` (a switch, off
-/// by default: it cost ILC F1 and IPIN odd 0.1-0.2 m; docs/tcpf.md "Two
-/// phones").
+/// six simulated walks. Met with each particle carrying its own offset,
+/// the default on a site without a radio map such as this one
+/// (`offset.per_particle_without_map`; with a radio map it cost ILC F1
+/// and IPIN odd 0.1-0.2 m and is off there; docs/tcpf.md "Two phones").
 #[test]
 fn a_phone_nine_db_weaker_is_seen_as_one() {
     let site = demo_site();
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.offset.per_particle = true;
+    let cfg = EngineConfig::default();
     let mut sep = Vec::new();
     let mut offsets = Vec::new();
     for seed in 3u64..=8 {
@@ -85,7 +85,7 @@ fn a_phone_nine_db_weaker_is_seen_as_one() {
     );
     // With each particle carrying its own offset (docs/tcpf.md "Two
     // phones") the tracks are a median 0.61 m apart after 60 s over walks
-    // 3-8 (one offset for the whole cloud, the default: 5.27 m); walks 3
+    // 3-8 (one offset for the whole cloud, the default before: 5.27 m); walks 3
     // and 4 alone 1.21 m (9.72 m with the default). Not everywhere: the p90 is 7.5 m, on walk 3
     // the weaker phone's start lands wrong and stays 11 m off. The
     // offsets end 5-6 dB apart, not 9: the weaker phone loses the readings

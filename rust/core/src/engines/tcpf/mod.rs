@@ -437,10 +437,13 @@ impl TcpfEngine {
         }
     }
 
-    /// Whether each particle carries its own offset.
+    /// Whether each particle carries its own offset: when asked for, or
+    /// (`per_particle_without_map`) when the model is the path-loss model
+    /// rather than a radio map learned from a survey.
     fn per_particle_offset(&self) -> bool {
         let oc = self.offset.config();
-        oc.enabled && oc.per_particle
+        let path_loss = !self.model.learned_per_floor();
+        oc.enabled && (oc.per_particle || (oc.per_particle_without_map && path_loss))
     }
 
     /// Per-particle offsets: every particle's drawn from N(mean, (k sd)^2)

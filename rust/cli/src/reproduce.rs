@@ -299,6 +299,12 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
                     Truth,
                 ),
                 v(
+                    "tc-ekf, ranging sigma 10 dB",
+                    "tc-ekf",
+                    r#"{"ekf":{"ranging_sigma_db":10.0}}"#,
+                    Truth,
+                ),
+                v(
                     "tc-ekf, weak ones ranged too",
                     "tc-ekf",
                     r#"{"ekf":{"ranging_min_rssi_1m_dbm":-200.0}}"#,

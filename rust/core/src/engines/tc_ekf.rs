@@ -279,8 +279,7 @@ impl TcEkfEngine {
                 r[k] = self.cfg.ranging_sigma_db.powi(2);
             }
             let k = Some((self.cfg.igg3_k0, self.cfg.igg3_k1));
-            let rep = robust_update(&mut self.x, &mut self.p, &v, &h, &r, k);
-            if rep.is_err() {
+            if robust_update(&mut self.x, &mut self.p, &v, &h, &r, k).is_err() {
                 self.stats.rejected_inputs += 1;
             }
         }

@@ -228,10 +228,18 @@ impl TcEkfEngine {
         if fresh.is_empty() {
             return true;
         }
-        // proximity (eq. 5): the strongest beacon when it is near
-        let (strongest, level) = proximity_candidate(&fresh, self.cfg.proximity_relative_to_r0);
+        // proximity (eq. 5): the strongest weak-signal beacon when it is near
+        let near: Vec<FilteredBeacon> = fresh
+            .iter()
+            .filter(|b| b.model.rssi_1m_dbm <= self.cfg.proximity_max_rssi_1m_dbm)
+            .copied()
+            .collect();
+        let candidate = (!near.is_empty())
+            .then(|| proximity_candidate(&near, self.cfg.proximity_relative_to_r0));
         let mut corrected = false;
-        if level - self.x[4] >= self.cfg.proximity_rssi_dbm {
+        if let Some((strongest, level)) = candidate
+            && level - self.x[4] >= self.cfg.proximity_rssi_dbm
+        {
             let var = self.cfg.proximity_sigma_m.powi(2);
             if self.position_update(strongest.pos, var, var, self.cfg.proximity_igg3) {
                 corrected = true;
@@ -560,6 +568,30 @@ mod tests {
         }
         let (b, sd) = e.rssi_bias_db();
         assert!((b + 6.0).abs() < 1.5 && sd < 2.0, "bias {b} +- {sd}");
+    }
+
+    /// Sec. III: proximity is the weak-signal transmitters' job. With
+    /// `proximity_max_rssi_1m_dbm` below a strong transmitter's R0 a loud
+    /// reading of the strong one (R0 -55) cannot give a fix; the weak one
+    /// (R0 -79) still can.
+    #[test]
+    fn proximity_can_be_kept_to_the_weak_transmitters() {
+        let mut cfg = EngineConfig::default();
+        cfg.ekf.proximity_relative_to_r0 = true;
+        cfg.ekf.proximity_rssi_dbm = -8.0;
+        cfg.ekf.ranging_rssi_dbm = 0.0;
+        let fixes = |max_r0: f64, rssi: f64| {
+            let mut c = cfg.clone();
+            c.ekf.proximity_max_rssi_1m_dbm = max_r0;
+            // beacon 0 at (2, 2) read 2 dB below R0 -59, the filter at (8, 2)
+            let mut e = engine(Vec2::new(8.0, 2.0), &c);
+            report(&mut e, SEC / 2, 0, rssi);
+            e.run_task(Task::Ble, SEC);
+            pos(&e).x < 7.0
+        };
+        assert!(fixes(0.0, -61.0));
+        assert!(!fixes(-70.0, -61.0));
+        assert!(fixes(-50.0, -61.0));
     }
 
     /// Fault found on the TC replica: a step that took eq. 9's BLE heading

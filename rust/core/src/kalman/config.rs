@@ -46,6 +46,12 @@ pub struct EkfConfig {
     /// level: the strong ones are always the loudest. Default false (the
     /// absolute threshold at the loudest beacon).
     pub proximity_relative_to_r0: bool,
+    /// tc-ekf: only beacons whose RSSI at 1 m (the site's R0) is at most
+    /// this can give a proximity fix, dBm. The paper's proximity belongs to
+    /// its weak-signal (-20 dBm) transmitters (eq. 5, Sec. III); with
+    /// `proximity_relative_to_r0` a strong one on the same post can
+    /// otherwise win on a loud reading. Default 0 (every beacon).
+    pub proximity_max_rssi_1m_dbm: f64,
     /// tc-ekf: weigh proximity fixes with IGG3 (`igg3_k0`, `igg3_k1`, the
     /// BMW paper's robust gain) instead of the TC paper's plain EKF update
     /// of eq. 5. The TC paper gates nothing: a detected proximity puts the
@@ -114,6 +120,7 @@ impl Default for EkfConfig {
             heading_sigma_rad: 0.15,
             proximity_rssi_dbm: -62.0,
             proximity_relative_to_r0: false,
+            proximity_max_rssi_1m_dbm: 0.0,
             proximity_igg3: false,
             proximity_sigma_m: 2.0,
             ranging_rssi_dbm: -90.0,
@@ -171,7 +178,8 @@ impl EkfConfig {
         }
         if !(self.proximity_rssi_dbm.is_finite()
             && self.ranging_rssi_dbm.is_finite()
-            && self.ranging_min_rssi_1m_dbm.is_finite())
+            && self.ranging_min_rssi_1m_dbm.is_finite()
+            && self.proximity_max_rssi_1m_dbm.is_finite())
         {
             return Err(Error::config("ekf.proximity_rssi_dbm", "must be finite"));
         }

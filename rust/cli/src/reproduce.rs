@@ -262,7 +262,11 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
         "tc" => PaperSpec {
             replica: "tc",
             title: "TC BLE/GNSS/PDR EKF (Wang et al.): Tables III, IV",
-            base_config: r#"{"ekf":{"proximity_relative_to_r0":true,"proximity_rssi_dbm":-8.0}}"#,
+            // RSSI_T relative to each transmitter's R0 (the weak ones' -8 dB:
+            // 2.5 m); ranging to the strong-signal (+4 dBm, R0 -55) transmitters
+            // only, as eqs. 22 and 24 (the weak ones have R0 -79); proximity
+            // fixes at the weak ones only (Sec. III)
+            base_config: r#"{"ekf":{"proximity_relative_to_r0":true,"proximity_rssi_dbm":-8.0,"ranging_min_rssi_1m_dbm":-70.0,"proximity_max_rssi_1m_dbm":-70.0}}"#,
             variants: vec![
                 v("tc-ekf", "tc-ekf", "{}", Truth),
                 v(
@@ -281,6 +285,36 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
                     "tc-ekf, absolute RSSI_T",
                     "tc-ekf",
                     r#"{"ekf":{"proximity_relative_to_r0":false,"proximity_rssi_dbm":-62.0}}"#,
+                    Truth,
+                ),
+                v(
+                    "tc-ekf, IGG3 on proximity",
+                    "tc-ekf",
+                    r#"{"ekf":{"proximity_igg3":true}}"#,
+                    Truth,
+                ),
+                v(
+                    "tc-ekf, ranging ahead only",
+                    "tc-ekf",
+                    r#"{"ekf":{"ranging_ahead_only":true}}"#,
+                    Truth,
+                ),
+                v(
+                    "tc-ekf, ranging sigma 10 dB",
+                    "tc-ekf",
+                    r#"{"ekf":{"ranging_sigma_db":10.0}}"#,
+                    Truth,
+                ),
+                v(
+                    "tc-ekf, proximity at strong ones too",
+                    "tc-ekf",
+                    r#"{"ekf":{"proximity_max_rssi_1m_dbm":0.0}}"#,
+                    Truth,
+                ),
+                v(
+                    "tc-ekf, weak ones ranged too",
+                    "tc-ekf",
+                    r#"{"ekf":{"ranging_min_rssi_1m_dbm":-200.0}}"#,
                     Truth,
                 ),
                 v("pdr", "pdr", "{}", Truth),

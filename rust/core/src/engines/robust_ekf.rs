@@ -463,22 +463,6 @@ mod tests {
     }
 
     #[test]
-    fn tc_ekf_estimates_an_injected_rssi_bias() {
-        let site = site();
-        let mut e =
-            crate::engines::tc_ekf::TcEkfEngine::new(site, &EngineConfig::default(), None).unwrap();
-        // a standing phone that reads 6 dB weaker than the calibrated models
-        replay(&mut e, walk_at(-6.0, 60, 0.0));
-        let (b, sd) = e.rssi_bias_db();
-        assert!(
-            (b + 6.0).abs() < 2.0 && sd < 3.0,
-            "bias {b} +- {sd} {:?} {:?}",
-            e.stats(),
-            e.pose()
-        );
-    }
-
-    #[test]
     fn bad_input_is_counted_and_gives_no_nan_and_no_fix() {
         for name in ["robust-ekf", "tc-ekf"] {
             let mut e = build_engine(name, site(), &EngineConfig::default(), None).unwrap();

@@ -55,6 +55,11 @@ pub struct TcEkfEngine {
     pub gnss_used: u64,
     /// Eq. 9 state (when `ekf.walking_direction`).
     walking: Option<WalkingDirection>,
+    /// Time of the last BLE task: a beacon whose last report is not newer
+    /// has nothing new to say (its filtered RSSI was already used).
+    last_ble_task_ns: Option<i64>,
+    /// Direction of the last step (the walking direction), MCS radians.
+    last_step_dir_rad: Option<f64>,
     stats: EngineStats,
 }
 
@@ -109,6 +114,8 @@ impl TcEkfEngine {
                     config.ekf.walking_min_travel_m,
                 )
             }),
+            last_ble_task_ns: None,
+            last_step_dir_rad: None,
             stats: EngineStats::default(),
             site,
         })
@@ -134,14 +141,20 @@ impl TcEkfEngine {
         self.p[(1, 1)] += 0.01 * dt;
     }
 
-    fn step(&mut self, length_m: f64, yaw_rad: f64) {
+    /// One step of `length_m` (plus dS) along `yaw_rad` + dtheta. With
+    /// `heading_from_state` false the step took eq. 9's BLE heading, which
+    /// does not depend on dtheta: the Jacobian's dtheta column is then 0
+    /// (it linearises the propagation actually done).
+    fn step(&mut self, length_m: f64, yaw_rad: f64, heading_from_state: bool) {
         let (l, th) = (length_m + self.x[2], yaw_rad + self.x[3]);
         let (s, c) = th.sin_cos();
         let mut f = DMatrix::identity(5, 5);
         f[(0, 2)] = c;
-        f[(0, 3)] = -l * s;
         f[(1, 2)] = s;
-        f[(1, 3)] = l * c;
+        if heading_from_state {
+            f[(0, 3)] = -l * s;
+            f[(1, 3)] = l * c;
+        }
         self.x[0] += l * c;
         self.x[1] += l * s;
         self.pdr_since_gnss += Vec2::new(l * c, l * s);
@@ -192,6 +205,16 @@ impl TcEkfEngine {
         if let Some(wd) = self.walking.as_mut() {
             wd.on_ble_position(t_ns as f64 * 1e-9, c);
         }
+        // a beacon's filtered RSSI is a new measurement only when a report
+        // arrived since the last task; between reports the front end keeps
+        // the same value (up to its staleness timeout), which must not be
+        // fed to the filter again as if it were independent
+        let since = self.last_ble_task_ns.replace(t_ns);
+        let fresh: Vec<FilteredBeacon> = beacons
+            .iter()
+            .filter(|b| since.is_none_or(|s| b.last_t_ns > s))
+            .copied()
+            .collect();
         if !self.initialised || floor != self.floor {
             self.x[0] = c.x;
             self.x[1] = c.y;
@@ -202,11 +225,24 @@ impl TcEkfEngine {
             self.initialised = true;
             self.floor = floor;
         }
-        // proximity (eq. 5): the strongest beacon when it is near
-        let (strongest, level) = proximity_candidate(&beacons, self.cfg.proximity_relative_to_r0);
-        if level - self.x[4] >= self.cfg.proximity_rssi_dbm {
+        if fresh.is_empty() {
+            return true;
+        }
+        // proximity (eq. 5): the strongest weak-signal beacon when it is near
+        let near: Vec<FilteredBeacon> = fresh
+            .iter()
+            .filter(|b| b.model.rssi_1m_dbm <= self.cfg.proximity_max_rssi_1m_dbm)
+            .copied()
+            .collect();
+        let candidate = (!near.is_empty())
+            .then(|| proximity_candidate(&near, self.cfg.proximity_relative_to_r0));
+        let mut corrected = false;
+        if let Some((strongest, level)) = candidate
+            && level - self.x[4] >= self.cfg.proximity_rssi_dbm
+        {
             let var = self.cfg.proximity_sigma_m.powi(2);
-            if self.position_update(strongest.pos, var, var, true) {
+            if self.position_update(strongest.pos, var, var, self.cfg.proximity_igg3) {
+                corrected = true;
                 // eqs. 6: GE fixed at this instant
                 if let Some(g) = self.last_gnss {
                     self.ge = Some(g - Vec2::new(self.x[0], self.x[1]));
@@ -214,18 +250,30 @@ impl TcEkfEngine {
                 }
             }
         }
-        // ranging (eqs. 16-18, 22-25): z = RSSI, h = R0 - 10 n log10(d) + b
-        let ranged: Vec<_> = beacons
+        // ranging (eqs. 16-18, 22-25): z = RSSI, h = R0 - 10 n log10(d) + b,
+        // to the strong-signal transmitters (R0 >= ranging_min_rssi_1m_dbm),
+        // with `ranging_ahead_only` those in front of the walker
+        let pos = Vec2::new(self.x[0], self.x[1]);
+        let ahead = self
+            .last_step_dir_rad
+            .filter(|_| self.cfg.ranging_ahead_only)
+            .map(|a| Vec2::new(a.cos(), a.sin()));
+        let ranged: Vec<_> = fresh
             .iter()
             .filter(|b| b.rssi_dbm >= self.cfg.ranging_rssi_dbm)
+            .filter(|b| b.model.rssi_1m_dbm >= self.cfg.ranging_min_rssi_1m_dbm)
+            .filter(|b| ahead.is_none_or(|u| (b.pos - pos).dot(&u) > 0.0))
             .take(self.cfg.ranging_max_beacons)
             .collect();
+        // the bias is observed only where the position was just corrected by
+        // a proximity fix (eq. 23, Sec. III-C 1); elsewhere the ranging uses
+        // the bias as estimated and leaves it alone (eq. 25: its column is 0)
+        let bias_column = if corrected { 1.0 } else { 0.0 };
         let m = ranged.len();
         if m > 0 {
             let mut h = DMatrix::zeros(m, 5);
             let mut v = DVector::zeros(m);
             let mut r = DVector::zeros(m);
-            let pos = Vec2::new(self.x[0], self.x[1]);
             for (k, b) in ranged.iter().enumerate() {
                 let dxy = pos - b.pos;
                 let d2 = dxy.norm_squared() + b.dz_m * b.dz_m;
@@ -234,7 +282,7 @@ impl TcEkfEngine {
                 let g = -10.0 * b.model.exponent / (LN10 * d.max(1e-6).powi(2));
                 h[(k, 0)] = g * dxy.x;
                 h[(k, 1)] = g * dxy.y;
-                h[(k, 4)] = 1.0;
+                h[(k, 4)] = bias_column;
                 v[k] = b.rssi_dbm - pred;
                 r[k] = self.cfg.ranging_sigma_db.powi(2);
             }
@@ -354,8 +402,9 @@ impl Engine for TcEkfEngine {
                         None => phone,
                     };
                     if self.initialised {
-                        self.step(s.length_m, walk - self.x[3]);
+                        self.step(s.length_m, walk - self.x[3], walk == phone);
                     }
+                    self.last_step_dir_rad = Some(walk);
                     heading = walk;
                 }
                 if self.floors.has_pressure()
@@ -415,6 +464,175 @@ fn proximity_candidate(beacons: &[FilteredBeacon], relative_to_r0: bool) -> (Fil
 mod tests {
     use super::*;
     use crate::ble::pathloss::PathLoss;
+    use crate::site::testkit::{beacon_site, open_map};
+
+    const MODEL: PathLoss = PathLoss {
+        rssi_1m_dbm: -59.0,
+        exponent: 2.0,
+    };
+    const SEC: i64 = 1_000_000_000;
+
+    const BEACONS: [(f64, f64); 3] = [(2.0, 2.0), (12.0, 2.0), (2.0, 12.0)];
+
+    /// The beacons of `BEACONS` on a 40 x 30 m open floor; R0 -59 dBm, n 2,
+    /// at the phone's height.
+    fn engine(at: Vec2, cfg: &EngineConfig) -> TcEkfEngine {
+        let site = beacon_site("tc", vec![open_map(40, 30)], &BEACONS, MODEL);
+        let init = InitialPosition {
+            x_m: at.x,
+            y_m: at.y,
+            floor: 0,
+            heading_rad: None,
+        };
+        TcEkfEngine::new(site, cfg, Some(init)).unwrap()
+    }
+
+    fn report(e: &mut TcEkfEngine, t_ns: i64, beacon: usize, rssi_dbm: f64) {
+        e.on_ble(&BleObservation {
+            t_ns,
+            beacon_id: format!("mac:00:00:00:00:00:{beacon:02X}"),
+            rssi_dbm,
+            tx_power_dbm: None,
+        });
+    }
+
+    fn pos(e: &TcEkfEngine) -> Vec2 {
+        Vec2::new(e.x[0], e.x[1])
+    }
+
+    /// Noise-free reports of `beacons` at `at` from a phone `bias_db` off the models.
+    fn hear(e: &mut TcEkfEngine, t_ns: i64, at: Vec2, beacons: &[usize], bias_db: f64) {
+        for &i in beacons {
+            let b = Vec2::new(BEACONS[i].0, BEACONS[i].1);
+            report(e, t_ns, i, MODEL.rssi_at((b - at).norm(), 0.5) + bias_db);
+        }
+    }
+
+    /// Fault found on the TC replica (issue 18): the front end keeps a
+    /// beacon's filtered RSSI for its staleness timeout (6 s) after the last
+    /// report, and every BLE task fed that same value to the filter again:
+    /// one report at the post gave six proximity fixes, each as confident as
+    /// a new one, while the walker moved on. A report is one measurement.
+    #[test]
+    fn one_report_is_used_by_one_ble_task_only() {
+        let mut e = engine(Vec2::new(5.0, 2.0), &EngineConfig::default());
+        // one loud report of beacon 0 (3 m away): a proximity fix at (2, 2)
+        report(&mut e, SEC / 2, 0, -58.0);
+        e.run_task(Task::Ble, SEC);
+        let after_fix = pos(&e);
+        assert!(after_fix.x < 4.5, "{after_fix:?}");
+        // nothing new heard for the next 4 s: nothing may move
+        for k in 2..6 {
+            e.run_task(Task::Ble, k * SEC);
+        }
+        assert!(
+            (pos(&e) - after_fix).norm() < 1e-9,
+            "{after_fix:?} -> {:?}",
+            pos(&e)
+        );
+    }
+
+    /// Eq. 25: away from a proximity fix the ranging uses the bias as
+    /// estimated and its column of H is 0; only eq. 23 (ranging at the epoch
+    /// of a proximity fix) observes it. Before the fix every ranging update
+    /// moved the bias, which then traded off against the distance to a row
+    /// of posts (replica: +5 dB at the first post, then the track 25 m off
+    /// the walkway).
+    #[test]
+    fn ranging_away_from_a_proximity_fix_leaves_the_bias_alone() {
+        // 7 m from every beacon (-76 dBm, -82 with the bias): no proximity
+        let at = Vec2::new(7.0, 7.0);
+        let mut e = engine(at, &EngineConfig::default());
+        for k in 1..=20 {
+            // a phone 6 dB weaker than the models, standing still
+            hear(&mut e, k * SEC - SEC / 2, at, &[0, 1, 2], -6.0);
+            e.run_task(Task::Ble, k * SEC);
+        }
+        assert_eq!(e.rssi_bias_db().0, 0.0);
+    }
+
+    /// Eq. 23: at a proximity fix the ranging to the other beacons observes
+    /// the bias (measured minus model, so -6 for a phone 6 dB weaker).
+    /// (Replaces robust_ekf's `tc_ekf_estimates_an_injected_rssi_bias`,
+    /// which found the bias of a phone standing 10 m from every beacon, with
+    /// no proximity fix: eq. 25 does not allow that.)
+    #[test]
+    fn ranging_at_proximity_fixes_estimates_the_bias() {
+        // 0.5 m from beacon 0 (-53 dBm, -59 with the bias: above -62), 9.5
+        // and 10 m from the others
+        let at = Vec2::new(2.5, 2.0);
+        let mut e = engine(at, &EngineConfig::default());
+        for k in 1..=30 {
+            hear(&mut e, k * SEC - SEC / 2, at, &[0, 1, 2], -6.0);
+            e.run_task(Task::Ble, k * SEC);
+        }
+        let (b, sd) = e.rssi_bias_db();
+        assert!((b + 6.0).abs() < 1.5 && sd < 2.0, "bias {b} +- {sd}");
+    }
+
+    /// Sec. III: proximity is the weak-signal transmitters' job. With
+    /// `proximity_max_rssi_1m_dbm` below a strong transmitter's R0 a loud
+    /// reading of the strong one (R0 -55) cannot give a fix; the weak one
+    /// (R0 -79) still can.
+    #[test]
+    fn proximity_can_be_kept_to_the_weak_transmitters() {
+        let mut cfg = EngineConfig::default();
+        cfg.ekf.proximity_relative_to_r0 = true;
+        cfg.ekf.proximity_rssi_dbm = -8.0;
+        cfg.ekf.ranging_rssi_dbm = 0.0;
+        let fixes = |max_r0: f64, rssi: f64| {
+            let mut c = cfg.clone();
+            c.ekf.proximity_max_rssi_1m_dbm = max_r0;
+            // beacon 0 at (2, 2) read 2 dB below R0 -59, the filter at (8, 2)
+            let mut e = engine(Vec2::new(8.0, 2.0), &c);
+            report(&mut e, SEC / 2, 0, rssi);
+            e.run_task(Task::Ble, SEC);
+            pos(&e).x < 7.0
+        };
+        assert!(fixes(0.0, -61.0));
+        assert!(!fixes(-70.0, -61.0));
+        assert!(fixes(-50.0, -61.0));
+    }
+
+    /// Fault found on the TC replica: a step that took eq. 9's BLE heading
+    /// was propagated along it (position independent of dtheta) but
+    /// linearised as if along yaw + dtheta, so the heading error's variance
+    /// leaked into the position (replica seed 1: lateral sigma 11.6 m while
+    /// the steps followed the BLE heading).
+    #[test]
+    fn a_step_along_the_ble_heading_does_not_depend_on_the_heading_error() {
+        let mut e = engine(Vec2::new(20.0, 12.0), &EngineConfig::default());
+        e.p[(3, 3)] = 0.25;
+        let p_yy = e.p[(1, 1)];
+        e.step(0.7, 0.0 - e.x[3], false);
+        let q = (0.05f64 * 0.7).powi(2);
+        assert!((e.p[(1, 1)] - p_yy - q).abs() < 1e-12, "{}", e.p[(1, 1)]);
+        assert_eq!(e.p[(1, 3)], 0.0);
+        // along the phone heading the heading error moves the position
+        e.step(0.7, 0.0 - e.x[3], true);
+        assert!(e.p[(1, 1)] > p_yy + 0.7 * 0.7 * 0.25 * 0.9);
+    }
+
+    /// Eq. 5 is a plain EKF update: a detected proximity puts the user at
+    /// the transmitter, however far the filter has drifted. With the BMW
+    /// paper's IGG3 gain (`ekf.proximity_igg3`) a filter 20 m off with a
+    /// confident covariance rejects every fix that would bring it back
+    /// (replica: 31 m behind at a post, every fix rejected).
+    #[test]
+    fn a_proximity_fix_far_from_a_drifted_filter_is_taken() {
+        let start = Vec2::new(22.0, 2.0);
+        let mut paper = engine(start, &EngineConfig::default());
+        let mut cfg = EngineConfig::default();
+        cfg.ekf.proximity_igg3 = true;
+        let mut gated = engine(start, &cfg);
+        for e in [&mut paper, &mut gated] {
+            report(e, SEC / 2, 0, -56.0);
+            e.run_task(Task::Ble, SEC);
+        }
+        // the plain update moves by the gain P / (P + R) = 1 / (1 + 4) of 20 m
+        assert!(pos(&paper).x < 19.0, "{:?}", pos(&paper));
+        assert!(pos(&gated).x > 21.5, "{:?}", pos(&gated));
+    }
 
     fn beacon(index: usize, rssi_dbm: f64, r0: f64) -> FilteredBeacon {
         FilteredBeacon {

@@ -46,12 +46,36 @@ pub struct EkfConfig {
     /// level: the strong ones are always the loudest. Default false (the
     /// absolute threshold at the loudest beacon).
     pub proximity_relative_to_r0: bool,
+    /// tc-ekf: only beacons whose RSSI at 1 m (the site's R0) is at most
+    /// this can give a proximity fix, dBm. The paper's proximity belongs to
+    /// its weak-signal (-20 dBm) transmitters (eq. 5, Sec. III); with
+    /// `proximity_relative_to_r0` a strong one on the same post can
+    /// otherwise win on a loud reading. Default 0 (every beacon).
+    pub proximity_max_rssi_1m_dbm: f64,
+    /// tc-ekf: weigh proximity fixes with IGG3 (`igg3_k0`, `igg3_k1`, the
+    /// BMW paper's robust gain) instead of the TC paper's plain EKF update
+    /// of eq. 5. The TC paper gates nothing: a detected proximity puts the
+    /// user at the transmitter. With IGG3 a filter that has drifted more
+    /// than ~3 sigma from the post never accepts the fix that would bring it
+    /// back (replica: 31 m behind at the post, every fix rejected; docs/
+    /// reproduction.md "tc-ekf"). Default false (the paper's).
+    pub proximity_igg3: bool,
     /// tc-ekf: standard deviation of a proximity fix, metres. Default 2.0.
     pub proximity_sigma_m: f64,
     /// tc-ekf: beacons at or above this filtered RSSI are ranged (eqs. 16-18), dBm. Default -85.
     pub ranging_rssi_dbm: f64,
     /// tc-ekf: most beacons ranged per BLE task. Default 6.
     pub ranging_max_beacons: usize,
+    /// tc-ekf: only beacons whose RSSI at 1 m (the site's R0) is at least
+    /// this are ranged, dBm. The paper ranges its strong-signal (+4 dBm)
+    /// transmitters only (eqs. 22, 24), never the weak (-20 dBm) proximity
+    /// ones; a site says which are which only through R0. Default -200
+    /// (every beacon: a site with one kind of beacon).
+    pub ranging_min_rssi_1m_dbm: f64,
+    /// tc-ekf: range only beacons ahead of the walker (in front of the last
+    /// step's direction), as the paper does against body shadowing (Sec.
+    /// III-C 1, Fig. 6). Default false (every beacon).
+    pub ranging_ahead_only: bool,
     /// tc-ekf: standard deviation of a ranging RSSI, dB. Default 5.0.
     pub ranging_sigma_db: f64,
     /// tc-ekf: random walk of the RSSI bias (eq. 19), dB^2/s. Default 0.01.
@@ -96,9 +120,13 @@ impl Default for EkfConfig {
             heading_sigma_rad: 0.15,
             proximity_rssi_dbm: -62.0,
             proximity_relative_to_r0: false,
+            proximity_max_rssi_1m_dbm: 0.0,
+            proximity_igg3: false,
             proximity_sigma_m: 2.0,
             ranging_rssi_dbm: -90.0,
             ranging_max_beacons: 6,
+            ranging_min_rssi_1m_dbm: -200.0,
+            ranging_ahead_only: false,
             ranging_sigma_db: 5.0,
             q_bias_db2_per_s: 0.01,
             bias_prior_sigma_db: 6.0,
@@ -148,7 +176,11 @@ impl EkfConfig {
                 return Err(Error::config(format!("ekf.{f}"), "must be finite and > 0"));
             }
         }
-        if !(self.proximity_rssi_dbm.is_finite() && self.ranging_rssi_dbm.is_finite()) {
+        if !(self.proximity_rssi_dbm.is_finite()
+            && self.ranging_rssi_dbm.is_finite()
+            && self.ranging_min_rssi_1m_dbm.is_finite()
+            && self.proximity_max_rssi_1m_dbm.is_finite())
+        {
             return Err(Error::config("ekf.proximity_rssi_dbm", "must be finite"));
         }
         use crate::bounds::check_count;

@@ -6,7 +6,12 @@
 //! `engines::tcpf` does them ("batch": `CloudLikelihood`; "reference":
 //! the per-particle `log_likelihood` and a second pass of `expected` for
 //! the residuals, as before issue 16); and one step (predict + ESS
-//! resampling). Compare the cases within one run.
+//! resampling); and the engine itself (`TcpfEngine` on the demo site, its
+//! path-loss model, 1000 particles started at a point): one radio task
+//! and one fusion task with the 10 nearest beacons heard, i.e. the
+//! weighting, offset, resampling, recovery checks (a likelihood surface
+//! every 5th update) and the published point with its accuracy radius,
+//! without a PDR step. Compare the cases within one run.
 //!
 //! Run: `FPBP_BENCH_CLOCK=cpu cargo bench -p fpbp-core --bench tcpf`.
 
@@ -17,6 +22,10 @@ mod common;
 use criterion::{Criterion, criterion_group, criterion_main};
 use fpbp_core::Vec2;
 use fpbp_core::ble::pathloss::PathLoss;
+use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task};
+use fpbp_core::engines::tcpf::TcpfEngine;
+use fpbp_core::events::BleObservation;
+use fpbp_core::fast_math::fast_exp;
 use fpbp_core::fusion::ParticleFilter;
 use fpbp_core::radio::likelihood::{CloudLikelihood, log_likelihood};
 use fpbp_core::radio::model::{PathLossModel, PathLossParams, Transmitter, TxKind};
@@ -147,14 +156,14 @@ fn radio_map(site: &Site, n: usize) -> RadioMap {
 /// (mean, sd, weight) sums.
 fn weigh(pf: &mut ParticleFilter, log_l: &mut [f64], m: usize, alpha: f64) -> f64 {
     let m = m.max(1) as f64;
-    let mean_l = log_l.iter().map(|l| (l / m).exp()).sum::<f64>();
+    let mean_l = log_l.iter().map(|l| fast_exp(l / m)).sum::<f64>();
     let lmax = log_l
         .iter()
         .fold(f64::NEG_INFINITY, |a, u| a.max(alpha * u));
     let lse = lmax
         + log_l
             .iter()
-            .map(|u| (alpha * u - lmax).exp())
+            .map(|u| fast_exp(alpha * u - lmax))
             .sum::<f64>()
             .ln();
     log_l.iter_mut().for_each(|u| *u *= alpha);
@@ -241,5 +250,52 @@ fn radio_update(c: &mut Criterion) {
     );
 }
 
-criterion_group!(benches, radio_update);
+/// One radio task and one fusion task of the engine with the 10 beacons
+/// nearest to a point heard 3 dB below the site's path-loss model.
+fn engine_update(c: &mut Criterion) {
+    let site = std::sync::Arc::new(demo_site());
+    let cfg = EngineConfig::default();
+    let at = Vec2::new(30.0, 20.0);
+    let init = InitialPosition {
+        x_m: at.x,
+        y_m: at.y,
+        floor: 0,
+        heading_rad: None,
+    };
+    let mut e = TcpfEngine::new(site, &cfg, Some(init)).expect("tcpf on the demo site");
+    let mut heard: Vec<(f64, String, f64)> = e
+        .model()
+        .transmitters()
+        .iter()
+        .enumerate()
+        .map(|(k, t)| {
+            let mu = e.model().expected(k, 0, at).unwrap().0;
+            ((t.pos - at).norm(), t.id.clone(), mu - 3.0)
+        })
+        .collect();
+    heard.sort_by(|a, b| a.0.total_cmp(&b.0));
+    heard.truncate(10);
+    let mut t_ns = 0i64;
+    c.bench_function(
+        "tcpf engine radio + fusion task, 1000 particles, 10 beacons heard (no step)",
+        |b| {
+            common::run(b, || {
+                t_ns += 1_000_000_000;
+                for (_, id, rssi) in &heard {
+                    e.on_ble(&BleObservation {
+                        t_ns,
+                        beacon_id: id.clone(),
+                        rssi_dbm: *rssi,
+                        tx_power_dbm: None,
+                    });
+                }
+                e.run_task(Task::Ble, t_ns);
+                e.run_task(Task::Fusion, t_ns);
+                black_box(e.pose())
+            })
+        },
+    );
+}
+
+criterion_group!(benches, radio_update, engine_update);
 criterion_main!(benches);

@@ -12,6 +12,7 @@ pub mod engine;
 pub mod engines;
 pub mod error;
 pub mod events;
+pub mod fast_math;
 pub mod fingerprint;
 pub mod floor;
 pub mod fusion;

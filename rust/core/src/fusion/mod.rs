@@ -7,12 +7,15 @@
 //! - [`ppc`]: Algorithm 2 on a [`ppc::PlanQueries`] map (raycast, room, normal).
 //! - [`recovery`]: extensions letting persistent BLE evidence move the
 //!   cloud between rooms (augmented-MCL re-seeding, room-level estimate).
+//! - [`weighted_quantile`]: a cloud's weighted distance quantile by
+//!   quickselect (accuracy radii).
 //! - [`FusionConfig`]: every threshold, with units and defaults.
 
 pub mod config;
 pub mod particle_filter;
 pub mod ppc;
 pub mod recovery;
+pub mod weighted_quantile;
 
 pub use config::{FusionConfig, PpcConfig, Resampling};
 pub use particle_filter::ParticleFilter;

@@ -18,6 +18,7 @@ use rand_pcg::Pcg64;
 
 use super::config::{FusionConfig, Resampling};
 use crate::Vec2;
+use crate::radio::fast_ln::ln_normal;
 
 /// Largest heading-noise half-width for which [`ParticleFilter::predict`]
 /// uses [`small_sin_cos`], rad.
@@ -44,11 +45,13 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
     (s, c)
 }
 
-/// One standard normal draw (Box-Muller, one of the pair).
+/// One standard normal draw (Box-Muller, one of the pair): the logarithm
+/// by [`ln_normal`] (relative 1e-10, u1 is a normal number), the cosine
+/// by [`crate::fast_math::cos_turns`] (within 1e-15 of `f64::cos`).
 fn std_normal(rng: &mut Pcg64) -> f64 {
     let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
     let u2: f64 = rng.random::<f64>();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    (-2.0 * ln_normal(u1)).sqrt() * crate::fast_math::cos_turns(u2)
 }
 
 /// Normalises `weights` to sum 1 (uniform when they are all zero or not finite).
@@ -108,6 +111,9 @@ pub struct ParticleFilter {
     index_scratch: Vec<usize>,
     /// Uniform draws of one predict (step length, heading), reused.
     draw_s: Vec<f64>,
+    /// Exponents and their exp in [`ParticleFilter::weight_log`], reused.
+    exp_in: Vec<f64>,
+    exp_out: Vec<f64>,
     draw_th: Vec<f64>,
     rng: Pcg64,
     count: usize,
@@ -149,6 +155,8 @@ impl ParticleFilter {
             scratch_scale: Vec::with_capacity(count),
             index_scratch: Vec::with_capacity(count),
             draw_s: Vec::with_capacity(count),
+            exp_in: Vec::new(),
+            exp_out: Vec::new(),
             draw_th: Vec::with_capacity(count),
             rng: Pcg64::seed_from_u64(seed),
             count,
@@ -737,8 +745,20 @@ impl ParticleFilter {
         if !max.is_finite() {
             return;
         }
-        for (w, l) in self.weights.iter_mut().zip(log_l) {
-            *w *= if l.is_finite() { (l - max).exp() } else { 0.0 };
+        // exp(l - max) of every particle in one pass (non-finite: 0)
+        let (xs, e) = (&mut self.exp_in, &mut self.exp_out);
+        xs.clear();
+        xs.extend(log_l.iter().map(|l| {
+            if l.is_finite() {
+                l - max
+            } else {
+                f64::NEG_INFINITY
+            }
+        }));
+        e.resize(xs.len(), 0.0);
+        crate::fast_math::exp_many(xs, e);
+        for (w, f) in self.weights.iter_mut().zip(e.iter()) {
+            *w *= f;
         }
         self.normalize();
     }

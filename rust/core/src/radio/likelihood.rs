@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::fast_ln::fast_ln;
+use super::fast_ln::{fast_ln, ln_normal};
 use super::model::RadioModel;
 use crate::{Result, Vec2};
 
@@ -350,6 +350,27 @@ impl CloudLikelihood {
 
     /// Moves the products into `out` and resets them.
     fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool) {
+        let normal = |v: &[f64]| {
+            v.iter().fold(true, |ok, q| {
+                ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
+            })
+        };
+        if normal(&self.prod) && (!sd_varies || normal(&self.sd_prod)) {
+            // the branch-free logarithm (vectorises): fast_ln's values
+            if sd_varies {
+                let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
+                for (u, (q, qs)) in out.iter_mut().zip(it) {
+                    *u -= half_nu1 * ln_normal(*q) + ln_normal(*qs);
+                    (*q, *qs) = (1.0, 1.0);
+                }
+            } else {
+                for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
+                    *u -= half_nu1 * ln_normal(*q);
+                    *q = 1.0;
+                }
+            }
+            return;
+        }
         if sd_varies {
             let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
             for (u, (q, qs)) in out.iter_mut().zip(it) {
@@ -374,13 +395,29 @@ impl CloudLikelihood {
         }
         let n = self.n;
         let (mean, sd) = (&self.mean[k * n..(k + 1) * n], &self.sd[k * n..(k + 1) * n]);
-        let (mut mu, mut s, mut wsum) = (0.0, 0.0, 0.0);
-        for ((w, a), b) in weights.iter().zip(mean).zip(sd) {
-            mu += w * a;
-            s += w * b;
-            wsum += w;
+        // four partial sums each (independent chains: the loop runs at
+        // the adder's throughput instead of its latency)
+        let n = n.min(weights.len());
+        let (mut mu, mut s, mut ws) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        let split = n - n % 4;
+        let quads = weights[..split]
+            .chunks_exact(4)
+            .zip(mean[..split].chunks_exact(4))
+            .zip(sd[..split].chunks_exact(4));
+        for ((w, a), b) in quads {
+            for l in 0..4 {
+                mu[l] += w[l] * a[l];
+                s[l] += w[l] * b[l];
+                ws[l] += w[l];
+            }
         }
-        Some((mu, s, wsum))
+        for i in split..n {
+            mu[0] += weights[i] * mean[i];
+            s[0] += weights[i] * sd[i];
+            ws[0] += weights[i];
+        }
+        let total = |v: [f64; 4]| (v[0] + v[1]) + (v[2] + v[3]);
+        Some((total(mu), total(s), total(ws)))
     }
 }
 
@@ -445,6 +482,91 @@ pub fn profiled(
         log_likelihood(model, cfg, meas, floor, p, o) - 0.5 * z0 * z0,
         1.0 / den.sqrt(),
     )
+}
+
+/// [`profiled`] at every point of `ps` into `offsets` and `lls` (cleared
+/// first), within 1e-6 of it (unit test): each transmitter's expected
+/// RSSI computed once per point through [`RadioModel::expected_many`] (the
+/// likelihood surface of a start or a re-seeding over thousands of
+/// cells), the offsets by the same sums in the same order, the
+/// log-likelihood as [`CloudLikelihood::evaluate`] forms it (products of
+/// [`PRODUCT_TERMS`] factors, one [`fast_ln`] each).
+#[allow(clippy::too_many_arguments)]
+pub fn profiled_many(
+    model: &dyn RadioModel,
+    cfg: &LikelihoodConfig,
+    meas: &[Measurement],
+    floor: i32,
+    ps: &[Vec2],
+    prior_db: f64,
+    prior_sd_db: f64,
+    offsets: &mut Vec<f64>,
+    sds: &mut Vec<f64>,
+    lls: &mut Vec<f64>,
+) {
+    let n = ps.len();
+    let ip = 1.0 / (prior_sd_db * prior_sd_db).max(1e-6);
+    let (mut mean, mut sd) = (vec![0.0; n * meas.len()], vec![0.0; n * meas.len()]);
+    let mut known = Vec::with_capacity(meas.len());
+    let (mut num, mut den) = (vec![prior_db * ip; n], vec![ip; n]);
+    for (k, m) in meas.iter().enumerate() {
+        let (mu, s) = (&mut mean[k * n..(k + 1) * n], &mut sd[k * n..(k + 1) * n]);
+        let ok = model.expected_many(m.tx, floor, ps, mu, s);
+        known.push(ok);
+        if !ok {
+            continue;
+        }
+        for (((a, b), mu), s) in num
+            .iter_mut()
+            .zip(den.iter_mut())
+            .zip(mu.iter())
+            .zip(s.iter())
+        {
+            let w = 1.0 / (s * s);
+            *a += (m.rssi_dbm - mu) * w;
+            *b += w;
+        }
+    }
+    offsets.clear();
+    offsets.extend(num.iter().zip(&den).map(|(a, b)| a / b));
+    sds.clear();
+    sds.extend(den.iter().map(|b| 1.0 / b.sqrt()));
+    lls.clear();
+    lls.resize(n, 0.0);
+    let half_nu1 = 0.5 * (cfg.student_nu + 1.0);
+    let inv_nu = 1.0 / cfg.student_nu;
+    let (mut prod, mut sd_prod) = (vec![1.0; n], vec![1.0; n]);
+    let mut terms = 0;
+    let flush = |lls: &mut [f64], prod: &mut [f64], sd_prod: &mut [f64]| {
+        for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
+            *l -= half_nu1 * fast_ln(*q) + fast_ln(*qs);
+            (*q, *qs) = (1.0, 1.0);
+        }
+    };
+    for (k, m) in meas.iter().enumerate() {
+        if !known[k] {
+            continue;
+        }
+        let (mu, s) = (&mean[k * n..(k + 1) * n], &sd[k * n..(k + 1) * n]);
+        let it = prod.iter_mut().zip(sd_prod.iter_mut()).zip(offsets.iter());
+        for (((q, qs), o), (mu, s)) in it.zip(mu.iter().zip(s)) {
+            let z = (m.rssi_dbm - o - mu) / s;
+            *q *= 1.0 + z * z * inv_nu;
+            *qs *= s;
+        }
+        terms += 1;
+        if terms == PRODUCT_TERMS {
+            flush(lls, &mut prod, &mut sd_prod);
+            terms = 0;
+        }
+    }
+    if terms > 0 {
+        flush(lls, &mut prod, &mut sd_prod);
+    }
+    for (l, o) in lls.iter_mut().zip(offsets.iter()) {
+        let z0 = (o - prior_db) / prior_sd_db.max(1e-3);
+        *l -= 0.5 * z0 * z0;
+    }
 }
 
 #[cfg(test)]
@@ -612,6 +734,35 @@ mod tests {
         assert!(out.iter().all(|l| *l == 0.0) && out.len() == ps.len());
         cloud.evaluate(&m, &cfg, &heard(&m, ps[0], 0.0), 0, &[], 0.0, &mut out);
         assert!(out.is_empty());
+    }
+
+    #[test]
+    fn the_profiled_surface_is_the_per_point_one() {
+        let m = model();
+        let wavy = Wavy(m.clone());
+        let cfg = LikelihoodConfig::default();
+        let ps: Vec<Vec2> = (0..400)
+            .map(|i| Vec2::new((i % 20) as f64 * 1.03, (i / 20) as f64 * 0.97))
+            .collect();
+        let (mut offs, mut sds, mut lls) = (Vec::new(), Vec::new(), Vec::new());
+        for model in [&m as &dyn RadioModel, &wavy] {
+            let mut meas = heard(&m, Vec2::new(6.0, 9.0), -7.0);
+            meas[1].rssi_dbm -= 20.0;
+            meas.push(Measurement {
+                tx: 999,
+                rssi_dbm: -70.0,
+                readings: 1,
+            });
+            profiled_many(
+                model, &cfg, &meas, 0, &ps, -2.0, 4.0, &mut offs, &mut sds, &mut lls,
+            );
+            assert_eq!((offs.len(), lls.len()), (ps.len(), ps.len()));
+            for (((p, o), sd), l) in ps.iter().zip(&offs).zip(&sds).zip(&lls) {
+                let (o0, l0, sd0) = profiled(model, &cfg, &meas, 0, *p, -2.0, 4.0);
+                assert!((o - o0).abs() < 1e-8 && (l - l0).abs() < 1e-6, "{p:?}");
+                assert!((sd - sd0).abs() < 1e-12, "{p:?}");
+            }
+        }
     }
 
     #[test]

@@ -15,6 +15,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::fast_ln::ln_normal;
 use super::model::{RadioModel, Transmitter, TxKind};
 pub use super::radio_map_build::{
     BuildSummary, RadioMapBuilder, RadioMapConfig, TxReport, kind_name,
@@ -123,19 +124,36 @@ impl Grid {
             (fu - i0 as f64).clamp(0.0, 1.0),
             (fv - j0 as f64).clamp(0.0, 1.0),
         );
-        let corners = [
-            self.at(i0, j0),
-            self.at(i1, j0),
-            self.at(i0, j1),
-            self.at(i1, j1),
-        ];
-        // the nearest cell is one of the four corners
-        let [Some(a), Some(b), Some(c), Some(d)] = corners else {
-            return self.at(u as usize, v as usize);
+        // the four corners' raw values (a missing index counts as no value)
+        let (r0, r1) = (j0.saturating_mul(self.nx), j1.saturating_mul(self.nx));
+        let raw = |k: usize| {
+            (
+                self.mean_dbm_x10.get(k).copied().unwrap_or(NO_VALUE),
+                self.sd_dbm_x10.get(k).copied().unwrap_or(NO_VALUE),
+            )
         };
+        let c = [
+            raw(r0.saturating_add(i0)),
+            raw(r0.saturating_add(i1)),
+            raw(r1.saturating_add(i0)),
+            raw(r1.saturating_add(i1)),
+        ];
+        if c.iter().any(|(m, s)| *m == NO_VALUE || *s == NO_VALUE) {
+            // the nearest cell is one of the four corners
+            return self.at(u as usize, v as usize);
+        }
+        let f = |x: i16| f64::from(x) / 10.0;
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let mean = lerp(lerp(a.0, b.0, tx), lerp(c.0, d.0, tx), ty);
-        let sd = lerp(lerp(a.1, b.1, tx), lerp(c.1, d.1, tx), ty);
+        let mean = lerp(
+            lerp(f(c[0].0), f(c[1].0), tx),
+            lerp(f(c[2].0), f(c[3].0), tx),
+            ty,
+        );
+        let sd = lerp(
+            lerp(f(c[0].1), f(c[1].1), tx),
+            lerp(f(c[2].1), f(c[3].1), tx),
+            ty,
+        );
         Some((mean, sd))
     }
 }
@@ -258,6 +276,60 @@ pub(super) fn fallback_at(
     super::model::across_floors(here, apart, fb.floor_loss_db, fb.other_floor_sd_db)
 }
 
+/// [`fallback_at`] of one transmitter with its per-point work reduced to
+/// a squared range and [`ln_normal`] (as [`super::model::pathloss_many`]):
+/// within 1e-8 dB of it.
+struct FastFallback {
+    /// The prior (or, with a path-loss model, the spread) after floors.
+    here: (f64, f64),
+    pathloss: bool,
+    /// R0 less the floors' loss, 5 n / ln 10, dz^2, the floored range^2.
+    r0: f64,
+    k: f64,
+    dz2: f64,
+    lo2: f64,
+    pos: Vec2,
+}
+
+impl FastFallback {
+    fn new(t: &Transmitter, has_pathloss: bool, fb: &FallbackParams, apart: i32) -> Self {
+        let sd = match t.kind {
+            TxKind::Ble => fb.ble_sd_db,
+            TxKind::Wifi => fb.wifi_sd_db,
+        };
+        let base = if has_pathloss {
+            (0.0, sd)
+        } else {
+            (fb.prior_dbm, fb.prior_sd_db)
+        };
+        let here = super::model::across_floors(base, apart, fb.floor_loss_db, fb.other_floor_sd_db);
+        let loss = if apart > 0 {
+            fb.floor_loss_db * f64::from(apart)
+        } else {
+            0.0
+        };
+        FastFallback {
+            here,
+            pathloss: has_pathloss,
+            r0: t.model.rssi_1m_dbm - loss,
+            k: 5.0 * t.model.exponent / std::f64::consts::LN_10,
+            dz2: t.dz_m * t.dz_m,
+            lo2: (fb.min_range_m * fb.min_range_m).max(f64::MIN_POSITIVE),
+            pos: t.pos,
+        }
+    }
+
+    #[inline]
+    fn at(&self, p: Vec2) -> (f64, f64) {
+        if !self.pathloss {
+            return self.here;
+        }
+        let (dx, dy) = (p.x - self.pos.x, p.y - self.pos.y);
+        let d2 = (dx * dx + dy * dy + self.dz2).max(self.lo2).min(f64::MAX);
+        (self.r0 - self.k * ln_normal(d2), self.here.1)
+    }
+}
+
 impl RadioModel for RadioMap {
     fn learned_per_floor(&self) -> bool {
         true
@@ -302,10 +374,11 @@ impl RadioModel for RadioMap {
         let grid = e.grids.iter().find(|g| g.floor == floor);
         let apart = self.floors_apart(floor, t.floor);
         let fb = &self.fallback;
+        let fast = FastFallback::new(t, e.has_pathloss, fb, apart);
         for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
             (*m, *s) = grid
                 .and_then(|g| g.sample(*p))
-                .unwrap_or_else(|| fallback_at(t, e.has_pathloss, fb, apart, *p));
+                .unwrap_or_else(|| fast.at(*p));
         }
         true
     }

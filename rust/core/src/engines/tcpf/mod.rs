@@ -41,12 +41,15 @@ use crate::Result;
 use crate::Vec2;
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
+use crate::fast_math::{exp_many, fast_exp};
 use crate::floor::FloorTracker;
 use crate::fusion::ParticleFilter;
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
+use crate::fusion::weighted_quantile::weighted_quantile;
 use crate::map::FloorMap;
 use crate::pdr::Pdr;
-use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood, profiled};
+use crate::radio::fast_ln::fast_ln;
+use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood, profiled_many};
 use crate::radio::model::PathLossParams;
 use crate::radio::reference_scans::{ScanTrail, WeightedCandidate, candidate_fix};
 use crate::radio::{Measurement, PathLossModel, PhoneOffset, RadioModel, ScanWindow, TxKind};
@@ -141,14 +144,31 @@ fn anchor_support(
     Some(s / wsum / peak)
 }
 
-/// The anchors' mixture at `p` on `floor`: sum of w exp(-d^2 / 2 sigma^2).
+/// The anchors' mixture at `p` on `floor`: sum of w exp(-d^2 / 2 sigma^2)
+/// ([`fast_exp`]).
 fn anchor_mix(anchors: &[Anchor], floor: i32, p: Vec2, sigma_m: f64) -> f64 {
     let k = -0.5 / (sigma_m * sigma_m);
     anchors
         .iter()
         .filter(|a| a.floor == floor)
-        .map(|a| a.w * ((p - a.pos).norm_squared() * k).exp())
+        .map(|a| a.w * fast_exp((p - a.pos).norm_squared() * k))
         .sum()
+}
+
+/// [`anchor_mix`] at every point of `ps`, appended to `out` (the anchors
+/// of `floor` picked once).
+fn anchor_mix_many(anchors: &[Anchor], floor: i32, ps: &[Vec2], sigma_m: f64, out: &mut Vec<f64>) {
+    let k = -0.5 / (sigma_m * sigma_m);
+    let here: Vec<(Vec2, f64)> = anchors
+        .iter()
+        .filter(|a| a.floor == floor)
+        .map(|a| (a.pos, a.w))
+        .collect();
+    out.extend(ps.iter().map(|p| {
+        here.iter()
+            .map(|(q, w)| w * fast_exp((p - q).norm_squared() * k))
+            .sum::<f64>()
+    }));
 }
 
 /// The tightly coupled radio-likelihood particle filter.
@@ -197,6 +217,11 @@ pub struct TcpfEngine {
     before: Vec<Vec2>,
     crossed: Vec<bool>,
     log_l: Vec<f64>,
+    /// The cloud's likelihood of the last radio update (reused buffers).
+    cloud: CloudLikelihood,
+    /// Exponents and their exp of one radio update (reused).
+    exp_in: Vec<f64>,
+    exp_out: Vec<f64>,
     published: Option<Vec2>,
     hold_runs: u32,
     /// Radio updates since the last radio-alone recovery check.
@@ -304,6 +329,9 @@ impl TcpfEngine {
             before: Vec::new(),
             crossed: Vec::new(),
             log_l: Vec::new(),
+            cloud: CloudLikelihood::default(),
+            exp_in: Vec::new(),
+            exp_out: Vec::new(),
             published: None,
             hold_runs: 0,
             radio_updates_since_check: 0,
@@ -391,15 +419,14 @@ impl TcpfEngine {
         let lc = &self.cfg.likelihood;
         let alpha = lc.alpha(meas.len());
         let (o0, sd0) = prior;
-        let mut ll = Vec::with_capacity(cells.len());
-        let mut offs = Vec::with_capacity(cells.len());
-        let mut sds = Vec::with_capacity(cells.len());
-        for c in cells {
-            let (o, l, sd) = profiled(self.model.as_ref(), lc, meas, floor, *c, o0, sd0);
-            let miss = missing_log_likelihood(self.model.as_ref(), lc, missing, floor, *c, o);
-            ll.push(alpha * (l + miss));
-            offs.push(o);
-            sds.push(sd);
+        let (mut offs, mut sds, mut ll) = (Vec::new(), Vec::new(), Vec::new());
+        let model = self.model.as_ref();
+        profiled_many(
+            model, lc, meas, floor, cells, o0, sd0, &mut offs, &mut sds, &mut ll,
+        );
+        for ((l, c), o) in ll.iter_mut().zip(cells).zip(&offs) {
+            let miss = missing_log_likelihood(model, lc, missing, floor, *c, *o);
+            *l = alpha * (*l + miss);
         }
         let ac = &self.cfg.anchors;
         if !anchors.is_empty() && ac.start_weight > 0.0 {
@@ -648,7 +675,7 @@ impl TcpfEngine {
         let mut mean_l = 0.0;
         // untempered log-likelihood per particle first; each transmitter's
         // expected RSSI per particle is kept for the residuals below
-        let mut cloud = CloudLikelihood::default();
+        let mut cloud = std::mem::take(&mut self.cloud);
         let per_particle = self.per_particle_offset() && !self.pf.state().is_empty();
         if per_particle {
             let dt_s = self
@@ -664,10 +691,19 @@ impl TcpfEngine {
         } else {
             cloud.evaluate(model.as_ref(), &lc, meas, floor, ps, o, &mut self.log_l);
         }
-        for (u, p) in self.log_l.iter_mut().zip(ps) {
-            let miss = missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
-            mean_l += (*u / m).exp();
-            *u += miss;
+        // exp of the per-transmitter mean log-likelihoods in one pass
+        let (xs, ex) = (&mut self.exp_in, &mut self.exp_out);
+        xs.clear();
+        xs.extend(self.log_l.iter().map(|u| *u / m));
+        ex.resize(xs.len(), 0.0);
+        exp_many(xs, ex);
+        for e in ex.iter() {
+            mean_l += e;
+        }
+        if !missed.is_empty() {
+            for (u, p) in self.log_l.iter_mut().zip(ps) {
+                *u += missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
+            }
         }
         // log of the cloud's mean likelihood tempered by alpha0 (comparable
         // with the surface), by log-sum-exp
@@ -676,14 +712,10 @@ impl TcpfEngine {
             .iter()
             .fold(f64::NEG_INFINITY, |a, u| a.max(alpha0 * u));
         let n = self.log_l.len().max(1) as f64;
-        let cloud_ll = lmax
-            + (self
-                .log_l
-                .iter()
-                .map(|u| (alpha0 * u - lmax).exp())
-                .sum::<f64>()
-                / n)
-                .ln();
+        xs.clear();
+        xs.extend(self.log_l.iter().map(|u| alpha0 * u - lmax));
+        exp_many(xs, ex);
+        let cloud_ll = lmax + (ex.iter().sum::<f64>() / n).ln();
         mean_l /= self.pf.particles().len().max(1) as f64;
         let mut log_l = std::mem::take(&mut self.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
@@ -698,17 +730,12 @@ impl TcpfEngine {
         if on_floor {
             let mix = &mut self.anchor_buf;
             mix.clear();
-            mix.extend(
-                self.pf
-                    .particles()
-                    .iter()
-                    .map(|p| anchor_mix(anchors, floor, *p, ac.sigma_m)),
-            );
+            anchor_mix_many(anchors, floor, self.pf.particles(), ac.sigma_m, mix);
             support = anchor_support(anchors, floor, ac.sigma_m, mix, self.pf.weights());
             if ac.weight > 0.0 {
                 let norm = (ac.floor + 1.0).ln();
                 for (u, a) in log_l.iter_mut().zip(mix.iter()) {
-                    *u += ac.weight * ((ac.floor + a).ln() - norm);
+                    *u += ac.weight * (fast_ln(ac.floor + a) - norm);
                 }
             }
         }
@@ -725,6 +752,7 @@ impl TcpfEngine {
                 (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
             })
             .collect();
+        self.cloud = cloud;
         if per_particle {
             self.summarise_offsets();
         } else {
@@ -1080,7 +1108,8 @@ impl TcpfEngine {
         (wsum > 0.0).then(|| s / wsum)
     }
 
-    /// The `accuracy_quantile` of the weighted distances from `at`.
+    /// The `accuracy_quantile` of the weighted distances from `at`
+    /// ([`weighted_quantile`]: the sorted cloud's value without sorting it).
     fn accuracy_m(&self, at: Vec2) -> f64 {
         let (ps, ws) = (self.pf.particles(), self.pf.weights());
         let mut d: Vec<(f64, f64)> = ps
@@ -1088,17 +1117,7 @@ impl TcpfEngine {
             .zip(ws)
             .map(|(p, w)| ((p - at).norm(), *w))
             .collect();
-        d.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let total: f64 = d.iter().map(|x| x.1).sum();
-        let mut acc = 0.0;
-        let mut r = d.last().map_or(0.0, |x| x.0);
-        for (dist, w) in &d {
-            acc += w;
-            if acc >= self.cfg.accuracy_quantile * total {
-                r = *dist;
-                break;
-            }
-        }
+        let r = weighted_quantile(&mut d, self.cfg.accuracy_quantile).unwrap_or(0.0);
         (r * self.cfg.accuracy_scale).max(self.cfg.accuracy_min_m)
     }
 

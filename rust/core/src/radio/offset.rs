@@ -10,8 +10,10 @@
 //! below `min_expected_dbm` are left out: near the receiver's floor only the
 //! lucky strong readings are heard (censoring), which would bias o upwards.
 //!
-//! With `per_particle` (a switch, off by default: it cost ILC F1 and IPIN
-//! odd 0.1-0.2 m, docs/tcpf.md "Two phones") tcpf does not use this observation:
+//! With per-particle offsets (`per_particle`, and by default wherever the
+//! model is the path-loss model, `per_particle_without_map`; with a radio
+//! map it cost ILC F1 and IPIN odd 0.1-0.2 m, docs/tcpf.md "Two phones")
+//! tcpf does not use this observation:
 //! each particle carries its own offset, the likelihood uses it, and the
 //! belief here only summarises the particles (weighted mean and sd) for the
 //! stats, the anchors' query and (re)initialisations at a point. One offset

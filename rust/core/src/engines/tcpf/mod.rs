@@ -14,8 +14,9 @@
 //!   last run move the particles (each with its own heading offset and step
 //!   scale); a move through a wall kills the particle (doors pass); the
 //!   pending measurement set weighs them; the phone's RSSI offset is updated
-//!   from the residuals ([`crate::radio::PhoneOffset`]; with
-//!   `offset.per_particle` each particle carries its own, drawn at the start
+//!   from the residuals ([`crate::radio::PhoneOffset`]; with per-particle
+//!   offsets (the default without a radio map, `offset.per_particle` /
+//!   `per_particle_without_map`) each particle carries its own, drawn at the start
 //!   and on re-seeding from the offset profiled at its cell); ESS resampling;
 //!   augmented-MCL re-seeding from the likelihood surface when the cloud has
 //!   lost the radio; the published point never jumps through a wall (it
@@ -26,7 +27,7 @@
 //! likely floor in proportion to the likelihood with the phone offset
 //! profiled per cell (a global start: the first pose comes with the first
 //! radio update, with an accuracy radius as wide as the cloud); with
-//! `offset.per_particle` each particle keeps its cell's offset, so a weak
+//! per-particle offsets each particle keeps its cell's offset, so a weak
 //! phone near the beacons and a normal one far from them both stay in the
 //! cloud until the walk tells them apart.
 
@@ -457,7 +458,7 @@ impl TcpfEngine {
     /// `offset.reseed_from_prior` on a re-seeding, the configured prior.
     fn profile_prior(&self, reseed: bool) -> (f64, f64) {
         let oc = self.offset.config();
-        if reseed && oc.per_particle && oc.reseed_from_prior {
+        if reseed && self.per_particle_offset() && oc.reseed_from_prior {
             (oc.prior_db, oc.prior_sd_db)
         } else {
             (self.offset.mean_db(), self.offset.sd_db())

@@ -357,29 +357,25 @@ impl CloudLikelihood {
         };
         if normal(&self.prod) && (!sd_varies || normal(&self.sd_prod)) {
             // the branch-free logarithm (vectorises): fast_ln's values
-            if sd_varies {
-                let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
-                for (u, (q, qs)) in out.iter_mut().zip(it) {
-                    *u -= half_nu1 * ln_normal(*q) + ln_normal(*qs);
-                    (*q, *qs) = (1.0, 1.0);
-                }
-            } else {
-                for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
-                    *u -= half_nu1 * ln_normal(*q);
-                    *q = 1.0;
-                }
-            }
-            return;
+            self.drain(out, half_nu1, sd_varies, ln_normal);
+        } else {
+            self.drain(out, half_nu1, sd_varies, fast_ln);
         }
+    }
+
+    /// `out -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`,
+    /// the products reset to 1.
+    #[inline(always)]
+    fn drain(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool, ln: fn(f64) -> f64) {
         if sd_varies {
             let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
             for (u, (q, qs)) in out.iter_mut().zip(it) {
-                *u -= half_nu1 * fast_ln(*q) + fast_ln(*qs);
+                *u -= half_nu1 * ln(*q) + ln(*qs);
                 (*q, *qs) = (1.0, 1.0);
             }
         } else {
             for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
-                *u -= half_nu1 * fast_ln(*q);
+                *u -= half_nu1 * ln(*q);
                 *q = 1.0;
             }
         }

@@ -502,13 +502,19 @@ impl TcpfEngine {
             let o = self.offset.mean_db();
             self.pf.set_state(vec![o; n]);
         }
-        let m = self.offset.config().max_abs_db;
         let k = self.offset.config().particle_start_spread;
+        self.draw_offsets_of_cell_draws(|c| (s.cell_offset_db[c], k * s.cell_offset_sd_db[c]));
+    }
+
+    /// The offset of every particle the last cell draw placed, from
+    /// N(mean, sd^2) = `of_cell(its cell)`, clamped to `max_abs_db`.
+    fn draw_offsets_of_cell_draws(&mut self, of_cell: impl Fn(usize) -> (f64, f64)) {
+        let m = self.offset.config().max_abs_db;
         let draws = self.pf.cell_draws().to_vec();
         for (i, c) in draws {
+            let (mean, sd) = of_cell(c);
             let z = self.pf.draw_normal();
-            let o = (s.cell_offset_db[c] + k * s.cell_offset_sd_db[c] * z).clamp(-m, m);
-            self.pf.state_mut()[i] = o;
+            self.pf.state_mut()[i] = (mean + sd * z).clamp(-m, m);
         }
     }
 
@@ -857,13 +863,8 @@ impl TcpfEngine {
                 map.is_none_or(|m| m.is_walkable(q))
             });
         if self.per_particle_offset() && !self.pf.state().is_empty() {
-            let (o, sd) = (self.offset.mean_db(), self.offset.sd_db());
-            let m = self.offset.config().max_abs_db;
-            let draws = self.pf.cell_draws().to_vec();
-            for (i, _) in draws {
-                let z = self.pf.draw_normal();
-                self.pf.state_mut()[i] = (o + sd * z).clamp(-m, m);
-            }
+            let belief = (self.offset.mean_db(), self.offset.sd_db());
+            self.draw_offsets_of_cell_draws(|_| belief);
         }
         self.counts.anchor_reseeded += n as u64;
     }

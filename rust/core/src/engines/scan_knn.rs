@@ -5,7 +5,8 @@
 //! their own. Every radio period the trailing window's vector is compared
 //! with every reference scan; the pose is the weighted mean of the `k`
 //! closest on their heaviest floor (weights exp(-(d - d_best) / tau)).
-//! Settings: `tcpf.anchors` (k, min_transmitters, tau_db) and the
+//! Settings: `tcpf.anchors` (k, min_transmitters, metric, tau_db /
+//! tau_powed) and the
 //! reference scans' own window. Without a radio map that carries
 //! reference scans it gives no pose.
 
@@ -14,7 +15,7 @@ use std::sync::Arc;
 use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorEvent, WifiScan};
 use crate::radio::RadioModel;
-use crate::radio::reference_scans::{ScanTrail, candidate_fix};
+use crate::radio::reference_scans::{ScanMetric, ScanTrail, candidate_fix};
 use crate::wifi::FreshResults;
 
 /// The engine.
@@ -24,7 +25,8 @@ pub struct ScanKnnEngine {
     fresh_wifi: FreshResults,
     k: usize,
     min_transmitters: usize,
-    tau_db: f64,
+    tau: f64,
+    metric: ScanMetric,
     wifi_max_age_s: f64,
     period_ns: i64,
     pose: Option<Pose>,
@@ -42,7 +44,8 @@ impl ScanKnnEngine {
             fresh_wifi: FreshResults::default(),
             k: a.k.max(1),
             min_transmitters: a.min_transmitters,
-            tau_db: a.tau_db,
+            tau: a.tau(),
+            metric: a.metric,
             wifi_max_age_s: config.tcpf.wifi_max_age_s,
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
@@ -61,7 +64,7 @@ impl ScanKnnEngine {
             self.stats.no_fix += 1;
             return;
         }
-        let c = scans.weighted_query(&q, self.k, self.tau_db);
+        let c = scans.weighted_query(&q, self.k, self.tau, self.metric);
         let Some(fix) = candidate_fix(&c) else {
             self.stats.no_fix += 1;
             return;

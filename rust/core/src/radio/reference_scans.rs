@@ -40,6 +40,36 @@ pub const MAX_SCAN_TRANSMITTERS: usize = 1024;
 /// query's index; ILC F1's 53 survey walks hold ~180 000).
 pub const MAX_REFERENCE_ENTRIES: usize = 10_000_000;
 
+/// How a query ranks and weighs the reference scans.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ScanMetric {
+    /// RMS dB difference over the union of the two vectors' transmitters,
+    /// a transmitter missing on one side counting as `missing_dbm`.
+    #[default]
+    RmsDb,
+    /// Bray-Curtis (Sorensen) dissimilarity of the "powed" levels
+    /// [`powed_level`]: sum |a - b| / sum (a + b) over the union, in
+    /// [0, 1]. Strong readings weigh more than weak ones (a weak reading
+    /// differs little from a missing one), and a scan's score does not
+    /// grow with its length. Torres-Sospedra et al., "Comprehensive
+    /// analysis of distance and similarity measures for Wi-Fi
+    /// fingerprinting indoor positioning systems", Expert Systems with
+    /// Applications 42 (2015), found this pair the best of those compared.
+    BrayCurtisPowed,
+}
+
+/// Exponent of the powed level (docs/parameters.md "tcpf anchors").
+pub const POWED_BETA: f64 = 1.7;
+
+/// The powed level of `rssi_dbm`: (-m) ((r - m) / -m)^beta with m =
+/// `missing_dbm`, 0 for a missing transmitter, -m at 0 dBm.
+pub fn powed_level(rssi_dbm: f64, missing_dbm: f64) -> f64 {
+    let span = -missing_dbm;
+    let x = ((rssi_dbm - missing_dbm) / span).clamp(0.0, 1.0);
+    span * x.powf(POWED_BETA)
+}
+
 /// How reference scans are cut from survey walks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -118,10 +148,13 @@ pub struct Candidate {
     pub pos: Vec2,
     /// RMS RSSI difference to the query, dB.
     pub dist_db: f64,
+    /// The distance of the query's metric ([`ScanMetric`]): `dist_db`
+    /// for [`ScanMetric::RmsDb`].
+    pub score: f64,
 }
 
-/// A candidate weighted by its RSSI distance: exp(-(d - d_best) / tau),
-/// the weights of one query summing to 1.
+/// A candidate weighted by its score: exp(-(s - s_best) / tau), the
+/// weights of one query summing to 1.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WeightedCandidate {
     pub floor: i32,
@@ -189,6 +222,11 @@ pub struct ReferenceScans {
     /// Per scan and radio (BLE, WiFi): sum of (r - missing)^2 and count,
     /// the scan's side of "heard on one side only".
     alone: Vec<[(f64, u32); 2]>,
+    /// Per scan and radio: sum of the powed levels ([`powed_level`]).
+    powed_alone: Vec<[f64; 2]>,
+    /// [`powed_level`] of every RSSI from `missing_dbm` to 0 dBm in
+    /// 0.1 dB (the scans' resolution).
+    powed_table: Vec<f64>,
 }
 
 /// 0 for BLE, 1 for WiFi (index into [`ReferenceScans`]'s per-radio sums).
@@ -253,16 +291,24 @@ impl ReferenceScans {
         let m = cfg.missing_dbm;
         let mut postings: Vec<Vec<(u32, f64)>> = vec![Vec::new(); ids.len()];
         let mut alone = Vec::with_capacity(scans.len());
+        let powed_table: Vec<f64> = (0..=(-m * 10.0).round() as usize)
+            .map(|i| powed_level(m + i as f64 / 10.0, m))
+            .collect();
+        let mut powed_alone = Vec::with_capacity(scans.len());
         for (si, s) in scans.iter().enumerate() {
             let mut a = [(0.0, 0u32); 2];
+            let mut p = [0.0; 2];
             for &(j, r10) in &s.tx {
                 let r = (f64::from(r10) / 10.0).max(m);
                 postings[j as usize].push((si as u32, r));
-                let slot = &mut a[radio_slot(ids[j as usize].0)];
+                let k = radio_slot(ids[j as usize].0);
+                let slot = &mut a[k];
                 slot.0 += (r - m) * (r - m);
                 slot.1 += 1;
+                p[k] += powed_level(r, m);
             }
             alone.push(a);
+            powed_alone.push(p);
         }
         Ok(ReferenceScans {
             cfg,
@@ -271,6 +317,8 @@ impl ReferenceScans {
             scans,
             postings,
             alone,
+            powed_alone,
+            powed_table,
         })
     }
 
@@ -314,6 +362,19 @@ impl ReferenceScans {
         use_wifi: bool,
         k: usize,
     ) -> Vec<Candidate> {
+        self.query_with(query, use_ble, use_wifi, k, ScanMetric::RmsDb)
+    }
+
+    /// [`ReferenceScans::query`] ranked by `metric` (each candidate still
+    /// carries its RMS dB distance).
+    pub fn query_with(
+        &self,
+        query: &[(u32, f64)],
+        use_ble: bool,
+        use_wifi: bool,
+        k: usize,
+        metric: ScanMetric,
+    ) -> Vec<Candidate> {
         let used = |j: u32| match self.kind(j) {
             Some(TxKind::Ble) => use_ble,
             Some(TxKind::Wifi) => use_wifi,
@@ -332,45 +393,75 @@ impl ReferenceScans {
         // each shared transmitter turns two "heard on one side only" terms
         // into one difference: visit only the scans that heard the query's
         let mut shared: Vec<(f64, u32)> = vec![(0.0, 0); self.scans.len()];
+        // powed: the summed min(level_query, level_scan) of the shared
+        // transmitters (Bray-Curtis = 1 - 2 sum min / sum of all levels)
+        let powed = metric == ScanMetric::BrayCurtisPowed;
+        let mut shared_min: Vec<f64> = if powed {
+            vec![0.0; self.scans.len()]
+        } else {
+            Vec::new()
+        };
+        let top = self.powed_table.len() - 1;
+        let mut q_powed = 0.0;
         for &(j, a) in &q {
+            let pa = powed_level(a, m);
+            q_powed += pa;
             for &(si, r) in &self.postings[j as usize] {
                 let e = &mut shared[si as usize];
                 e.0 += (a - r) * (a - r) - (a - m) * (a - m) - (r - m) * (r - m);
                 e.1 += 1;
+                if powed {
+                    let pr = self.powed_table[(((r - m) * 10.0).round() as usize).min(top)];
+                    shared_min[si as usize] += pa.min(pr);
+                }
             }
         }
-        let mut out: Vec<(f64, usize)> = Vec::new();
+        let mut out: Vec<(f64, f64, usize)> = Vec::new();
         for (si, &(corr, n_shared)) in shared.iter().enumerate() {
             if n_shared == 0 {
                 continue;
             }
             let al = &self.alone[si];
             let (mut sum, mut n) = (q_only + corr, q.len() as u32 - n_shared);
+            let mut total = q_powed;
             for (slot, on) in [(0, use_ble), (1, use_wifi)] {
                 if on {
                     sum += al[slot].0;
                     n += al[slot].1;
+                    total += self.powed_alone[si][slot];
                 }
             }
-            out.push(((sum.max(0.0) / f64::from(n.max(1))).sqrt(), si));
+            let d = (sum.max(0.0) / f64::from(n.max(1))).sqrt();
+            let score = if powed {
+                if total > 0.0 {
+                    (1.0 - 2.0 * shared_min[si] / total).max(0.0)
+                } else {
+                    1.0
+                }
+            } else {
+                d
+            };
+            out.push((score, d, si));
         }
         let k = k.min(out.len());
         if k == 0 {
             return Vec::new();
         }
-        let cmp = |a: &(f64, usize), b: &(f64, usize)| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1));
+        let cmp =
+            |a: &(f64, f64, usize), b: &(f64, f64, usize)| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2));
         if k < out.len() {
             out.select_nth_unstable_by(k - 1, cmp);
             out.truncate(k);
         }
         out.sort_by(cmp);
         out.into_iter()
-            .map(|(d, si)| {
+            .map(|(score, d, si)| {
                 let s = &self.scans[si];
                 Candidate {
                     floor: s.floor,
                     pos: Vec2::new(s.x_m, s.y_m),
                     dist_db: d,
+                    score,
                 }
             })
             .collect()
@@ -378,18 +469,20 @@ impl ReferenceScans {
 }
 
 impl ReferenceScans {
-    /// [`ReferenceScans::query`] over the radios `query` holds, each of
-    /// the `k` candidates weighted exp(-(d - d_best) / `tau_db`), the
-    /// weights summing to 1.
+    /// [`ReferenceScans::query_with`] over the radios `query` holds, each
+    /// of the `k` candidates weighted exp(-(s - s_best) / `tau`) of its
+    /// `metric` score s (dB for [`ScanMetric::RmsDb`]), the weights
+    /// summing to 1.
     pub fn weighted_query(
         &self,
         query: &[(u32, f64)],
         k: usize,
-        tau_db: f64,
+        tau: f64,
+        metric: ScanMetric,
     ) -> Vec<WeightedCandidate> {
         let has = |kind: TxKind| query.iter().any(|(j, _)| self.kind(*j) == Some(kind));
-        let c = self.query(query, has(TxKind::Ble), has(TxKind::Wifi), k);
-        let Some(d0) = c.first().map(|c| c.dist_db) else {
+        let c = self.query_with(query, has(TxKind::Ble), has(TxKind::Wifi), k, metric);
+        let Some(d0) = c.first().map(|c| c.score) else {
             return Vec::new();
         };
         let mut out: Vec<WeightedCandidate> = c
@@ -397,7 +490,7 @@ impl ReferenceScans {
             .map(|c| WeightedCandidate {
                 floor: c.floor,
                 pos: c.pos,
-                w: (-(c.dist_db - d0) / tau_db).exp(),
+                w: (-(c.score - d0) / tau).exp(),
                 dist_db: c.dist_db,
             })
             .collect();
@@ -678,6 +771,52 @@ mod tests {
         out
     }
 
+    /// (Bray-Curtis of the powed levels, RMS dB, scan) of every scan
+    /// sharing a used transmitter with `q`, best first.
+    fn brute_powed(
+        s: &ReferenceScans,
+        q: &[(u32, f64)],
+        ble: bool,
+        wifi: bool,
+    ) -> Vec<(f64, f64, usize)> {
+        let m = s.config().missing_dbm;
+        let rms: BTreeMap<usize, f64> = brute(s, q, ble, wifi)
+            .into_iter()
+            .map(|(d, si)| (si, d))
+            .collect();
+        let used = |j: u32| match s.kind(j) {
+            Some(TxKind::Ble) => ble,
+            Some(TxKind::Wifi) => wifi,
+            None => false,
+        };
+        let mut out = Vec::new();
+        for (si, d) in rms {
+            let mut all: BTreeMap<u32, (f64, f64)> = BTreeMap::new();
+            for &(j, a) in q.iter().filter(|(j, _)| used(*j)) {
+                all.entry(j).or_insert((0.0, 0.0)).0 = powed_level(a, m);
+            }
+            for &(j, r) in s.scans()[si].tx.iter().filter(|(j, _)| used(*j)) {
+                all.entry(j).or_insert((0.0, 0.0)).1 = powed_level(f64::from(r) / 10.0, m);
+            }
+            let num: f64 = all.values().map(|(a, r)| (a - r).abs()).sum();
+            let den: f64 = all.values().map(|(a, r)| a + r).sum();
+            out.push((num / den, d, si));
+        }
+        out.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.2.cmp(&b.2)));
+        out
+    }
+
+    #[test]
+    fn powed_levels_weigh_strong_readings_more() {
+        assert_eq!(powed_level(-100.0, -100.0), 0.0);
+        assert_eq!(powed_level(-120.0, -100.0), 0.0);
+        assert!((powed_level(0.0, -100.0) - 100.0).abs() < 1e-12);
+        // 10 dB near the floor moves the level less than 10 dB near the top
+        let low = powed_level(-80.0, -100.0) - powed_level(-90.0, -100.0);
+        let high = powed_level(-40.0, -100.0) - powed_level(-50.0, -100.0);
+        assert!(high > 2.0 * low, "{low} {high}");
+    }
+
     #[test]
     fn the_query_matches_the_definition_on_random_scans() {
         let mut seed = 12345u64;
@@ -727,6 +866,15 @@ mod tests {
                 assert_eq!(got.len(), want.len().min(7));
                 for (g, w) in got.iter().zip(&want) {
                     assert!((g.dist_db - w.0).abs() < 1e-9, "{g:?} vs {w:?}");
+                    assert_eq!(g.score, g.dist_db);
+                }
+                let want = brute_powed(&set, &q, ble, wifi);
+                let got = set.query_with(&q, ble, wifi, 7, ScanMetric::BrayCurtisPowed);
+                assert_eq!(got.len(), want.len().min(7));
+                for (g, w) in got.iter().zip(&want) {
+                    assert!((g.score - w.0).abs() < 1e-9, "{g:?} vs {w:?}");
+                    assert!((g.dist_db - w.1).abs() < 1e-9, "{g:?} vs {w:?}");
+                    assert_eq!(g.pos.x, w.2 as f64);
                 }
             }
         }

@@ -7,6 +7,7 @@ use crate::Result;
 use crate::fusion::FusionConfig;
 use crate::radio::LikelihoodConfig;
 use crate::radio::offset::OffsetConfig;
+use crate::radio::reference_scans::ScanMetric;
 
 /// Settings of engine `tcpf`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -157,6 +158,12 @@ pub struct AnchorConfig {
     /// quadrature (a track the fingerprints disagree with is less sure
     /// than its cloud says; 0 = the cloud alone).
     pub accuracy_share: f64,
+    /// How the query ranks and weighs the reference scans
+    /// (`rms_db` or `bray_curtis_powed`).
+    pub metric: ScanMetric,
+    /// Candidate weight exp(-(s - s_best) / tau_powed) of its Bray-Curtis
+    /// score s (in [0, 1]) under `bray_curtis_powed`.
+    pub tau_powed: f64,
 }
 
 impl Default for AnchorConfig {
@@ -179,11 +186,21 @@ impl Default for AnchorConfig {
             reseed_fraction: 0.0,
             use_offset: true,
             accuracy_share: 0.5,
+            metric: ScanMetric::BrayCurtisPowed,
+            tau_powed: 0.2,
         }
     }
 }
 
 impl AnchorConfig {
+    /// The candidate weights' temperature of `metric`.
+    pub fn tau(&self) -> f64 {
+        match self.metric {
+            ScanMetric::RmsDb => self.tau_db,
+            ScanMetric::BrayCurtisPowed => self.tau_powed,
+        }
+    }
+
     /// Checks every field; errors name `tcpf.anchors.<field>`.
     pub fn validate(&self) -> Result<()> {
         for (f, v, lo, hi) in [
@@ -198,6 +215,7 @@ impl AnchorConfig {
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 10.0),
+            ("tau_powed", self.tau_powed, 1e-4, 10.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
         }

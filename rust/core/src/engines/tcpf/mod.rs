@@ -889,7 +889,7 @@ impl TcpfEngine {
         if q.len() < ac.min_transmitters {
             return Vec::new();
         }
-        let out = scans.weighted_query(&q, ac.k, ac.tau_db);
+        let out = scans.weighted_query(&q, ac.k, ac.tau(), ac.metric);
         self.survey_dist_db = out.first().map(|a| a.dist_db);
         if out.is_empty() {
             return out;

@@ -49,9 +49,38 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
 /// by [`ln_normal`] (relative 1e-10, u1 is a normal number), the cosine
 /// by [`crate::fast_math::cos_turns`] (within 1e-15 of `f64::cos`).
 fn std_normal(rng: &mut Pcg64) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(f64::MIN_POSITIVE);
+    let u1: f64 = rng.random::<f64>();
     let u2: f64 = rng.random::<f64>();
-    (-2.0 * ln_normal(u1)).sqrt() * crate::fast_math::cos_turns(u2)
+    box_muller(u1, u2)
+}
+
+/// [`std_normal`] of the two uniforms `u1`, `u2` (drawn in that order):
+/// no branch, so that loops over it vectorise.
+#[inline]
+fn box_muller(u1: f64, u2: f64) -> f64 {
+    (-2.0 * ln_normal(u1.max(f64::MIN_POSITIVE))).sqrt() * crate::fast_math::cos_turns(u2)
+}
+
+/// `n` standard normal draws into `out`, the same values in the same
+/// order as `n` calls of [`std_normal`]: the uniforms first (the serial
+/// chain through the RNG state, into `out` and `u2`), then Box-Muller
+/// over the arrays (independent per draw: it vectorises).
+fn std_normals(rng: &mut Pcg64, out: &mut [f64], u2: &mut Vec<f64>) {
+    u2.resize(out.len(), 0.0);
+    for (a, b) in out.iter_mut().zip(u2.iter_mut()) {
+        *a = rng.random::<f64>();
+        *b = rng.random::<f64>();
+    }
+    for (a, b) in out.iter_mut().zip(u2.iter()) {
+        *a = box_muller(*a, *b);
+    }
+}
+
+/// `u1[i]` := [`box_muller`]`(u1[i], u2[i])` for every i.
+fn box_muller_in_place(u1: &mut [f64], u2: &[f64]) {
+    for (a, b) in u1.iter_mut().zip(u2) {
+        *a = box_muller(*a, *b);
+    }
 }
 
 /// Normalises `weights` to sum 1 (uniform when they are all zero or not finite).
@@ -115,6 +144,9 @@ pub struct ParticleFilter {
     exp_in: Vec<f64>,
     exp_out: Vec<f64>,
     draw_th: Vec<f64>,
+    /// Uniform draws of one predict with particle biases or extra noise
+    /// (then their normals), reused.
+    draw_buf: Vec<f64>,
     rng: Pcg64,
     count: usize,
     step_noise_m: f64,
@@ -158,6 +190,7 @@ impl ParticleFilter {
             exp_in: Vec::new(),
             exp_out: Vec::new(),
             draw_th: Vec::with_capacity(count),
+            draw_buf: Vec::new(),
             rng: Pcg64::seed_from_u64(seed),
             count,
             step_noise_m: config.step_noise_m,
@@ -248,8 +281,24 @@ impl ParticleFilter {
         self.predict_eq34(step_length_m, yaw_rad);
         let sd = self.extra_noise_m;
         if sd > 0.0 {
-            for p in &mut self.particles {
-                let (a, b) = (std_normal(&mut self.rng), std_normal(&mut self.rng));
+            // per particle the draws of a then b (two uniforms each), as
+            // two calls of std_normal would take them; Box-Muller batched
+            let m = self.particles.len();
+            let d = &mut self.draw_buf;
+            d.resize(4 * m, 0.0);
+            let (a1, rest) = d.split_at_mut(m);
+            let (a2, rest) = rest.split_at_mut(m);
+            let (b1, b2) = rest.split_at_mut(m);
+            let rng = &mut self.rng;
+            for (((a1, a2), b1), b2) in a1.iter_mut().zip(&mut *a2).zip(&mut *b1).zip(&mut *b2) {
+                *a1 = rng.random::<f64>();
+                *a2 = rng.random::<f64>();
+                *b1 = rng.random::<f64>();
+                *b2 = rng.random::<f64>();
+            }
+            box_muller_in_place(a1, a2);
+            box_muller_in_place(b1, b2);
+            for ((p, a), b) in self.particles.iter_mut().zip(&*a1).zip(&*b1) {
                 *p += Vec2::new(sd * a, sd * b);
             }
         }
@@ -317,25 +366,61 @@ impl ParticleFilter {
         let a = self.heading_offset_decay;
         let gm_sd = self.heading_offset_sd_rad * (1.0 - a * a).sqrt();
         let (sy, cy) = yaw_rad.sin_cos();
-        for ((p, off), scale) in self
+        // The draws first, in the order of the per-particle loop (offset's
+        // normal, scale's normal, each two uniforms when on; then step and
+        // heading noise): one serial chain through the RNG state. Then
+        // Box-Muller over the arrays (vectorises), then the moves: the
+        // same operations on the same values as drawing inside the loop.
+        let (off_on, scale_on) = (a > 0.0 || walk_off > 0.0, walk_scale > 0.0);
+        let m = self.particles.len();
+        let d = &mut self.draw_buf;
+        d.resize(6 * m, 0.0);
+        let (o1, rest) = d.split_at_mut(m);
+        let (o2, rest) = rest.split_at_mut(m);
+        let (s1, rest) = rest.split_at_mut(m);
+        let (s2, rest) = rest.split_at_mut(m);
+        let (us, uth) = rest.split_at_mut(m);
+        let rng = &mut self.rng;
+        for i in 0..m {
+            if off_on {
+                o1[i] = rng.random::<f64>();
+                o2[i] = rng.random::<f64>();
+            }
+            if scale_on {
+                s1[i] = rng.random::<f64>();
+                s2[i] = rng.random::<f64>();
+            }
+            us[i] = rng.random::<f64>();
+            uth[i] = rng.random::<f64>();
+        }
+        if off_on {
+            box_muller_in_place(o1, o2);
+        }
+        if scale_on {
+            box_muller_in_place(s1, s2);
+        }
+        for (((((p, off), scale), &z_off), &z_scale), (&u_s, &u_th)) in self
             .particles
             .iter_mut()
             .zip(&mut self.heading_offset)
             .zip(&mut self.step_scale)
+            .zip(&*o1)
+            .zip(&*s1)
+            .zip(us.iter().zip(&*uth))
         {
             if a > 0.0 {
-                *off = (a * *off + gm_sd * std_normal(&mut self.rng))
+                *off = (a * *off + gm_sd * z_off)
                     .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
             } else if walk_off > 0.0 {
-                *off = (*off + walk_off * std_normal(&mut self.rng))
+                *off = (*off + walk_off * z_off)
                     .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
             }
-            if walk_scale > 0.0 {
-                *scale = (*scale + walk_scale * std_normal(&mut self.rng))
+            if scale_on {
+                *scale = (*scale + walk_scale * z_scale)
                     .clamp(1.0 - MAX_SCALE_DEVIATION, 1.0 + MAX_SCALE_DEVIATION);
             }
-            let nu_s = ds * (2.0 * self.rng.random::<f64>() - 1.0);
-            let nu_th = dth * (2.0 * self.rng.random::<f64>() - 1.0);
+            let nu_s = ds * (2.0 * u_s - 1.0);
+            let nu_th = dth * (2.0 * u_th - 1.0);
             let len = (step_length_m * *scale + nu_s).max(0.0);
             let d = *off + nu_th;
             let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
@@ -826,6 +911,12 @@ impl ParticleFilter {
     pub fn draw_normal(&mut self) -> f64 {
         std_normal(&mut self.rng)
     }
+
+    /// `out.len()` N(0, 1) draws from the filter's seeded RNG, the same
+    /// values as that many calls of [`ParticleFilter::draw_normal`].
+    pub fn draw_normals(&mut self, out: &mut [f64]) {
+        std_normals(&mut self.rng, out, &mut self.draw_buf);
+    }
 }
 
 #[cfg(test)]
@@ -851,6 +942,87 @@ mod tests {
             ..FusionConfig::default()
         };
         ParticleFilter::new(&cfg, seed)
+    }
+
+    /// The biased predict and the extra noise as they were before the
+    /// draws were batched: every draw inside the per-particle loop.
+    fn predict_reference(pf: &mut ParticleFilter, step_length_m: f64, yaw_rad: f64) {
+        let (ds, dth) = (pf.step_noise_m, pf.heading_noise_rad);
+        let (walk_off, walk_scale) = (pf.heading_offset_walk_rad, pf.step_scale_walk);
+        let a = pf.heading_offset_decay;
+        let gm_sd = pf.heading_offset_sd_rad * (1.0 - a * a).sqrt();
+        let (sy, cy) = yaw_rad.sin_cos();
+        for ((p, off), scale) in pf
+            .particles
+            .iter_mut()
+            .zip(&mut pf.heading_offset)
+            .zip(&mut pf.step_scale)
+        {
+            if a > 0.0 {
+                *off = (a * *off + gm_sd * std_normal(&mut pf.rng))
+                    .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
+            } else if walk_off > 0.0 {
+                *off = (*off + walk_off * std_normal(&mut pf.rng))
+                    .clamp(-MAX_HEADING_OFFSET_RAD, MAX_HEADING_OFFSET_RAD);
+            }
+            if walk_scale > 0.0 {
+                *scale = (*scale + walk_scale * std_normal(&mut pf.rng))
+                    .clamp(1.0 - MAX_SCALE_DEVIATION, 1.0 + MAX_SCALE_DEVIATION);
+            }
+            let nu_s = ds * (2.0 * pf.rng.random::<f64>() - 1.0);
+            let nu_th = dth * (2.0 * pf.rng.random::<f64>() - 1.0);
+            let len = (step_length_m * *scale + nu_s).max(0.0);
+            let d = *off + nu_th;
+            let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
+                small_sin_cos(d)
+            } else {
+                d.sin_cos()
+            };
+            let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
+            *p += Vec2::new(len * c, len * s);
+        }
+        let sd = pf.extra_noise_m;
+        if sd > 0.0 {
+            for p in &mut pf.particles {
+                let (a, b) = (std_normal(&mut pf.rng), std_normal(&mut pf.rng));
+                *p += Vec2::new(sd * a, sd * b);
+            }
+        }
+    }
+
+    #[test]
+    fn batched_draws_match_the_per_particle_loop() {
+        // offsets random-walking or Gauss-Markov, scales walking or not,
+        // extra noise or not: the same positions, offsets, scales and
+        // RNG state to the bit
+        for (corr, walk_scale, noise) in [(0.0, 0.005, 0.3), (20.0, 0.0, 0.0), (0.0, 0.0, 0.2)] {
+            let cfg = FusionConfig {
+                particle_count: 257,
+                heading_offset_sd_rad: 0.15,
+                heading_offset_walk_rad: 0.01,
+                heading_offset_corr_steps: corr,
+                step_scale_sd: 0.1,
+                step_scale_walk: walk_scale,
+                ..FusionConfig::default()
+            };
+            let mut pf = ParticleFilter::new(&cfg, 5);
+            pf.init_at(Vec2::new(3.0, 4.0), 2.0, |_| true);
+            pf.set_extra_noise(noise);
+            let mut rf = pf.clone();
+            for k in 0..6 {
+                let yaw = 0.3 + 0.9 * f64::from(k);
+                pf.predict(0.7, yaw);
+                predict_reference(&mut rf, 0.7, yaw);
+                assert_eq!(pf.particles, rf.particles);
+                assert_eq!(pf.heading_offset, rf.heading_offset);
+                assert_eq!(pf.step_scale, rf.step_scale);
+                assert_eq!(pf.rng.random::<u64>(), rf.rng.random::<u64>());
+            }
+            let mut z = vec![0.0; 101];
+            pf.draw_normals(&mut z);
+            let r: Vec<f64> = (0..101).map(|_| rf.draw_normal()).collect();
+            assert_eq!(z, r);
+        }
     }
 
     /// Walks east 0.7 m per step while the PDR reports a yaw `bias_rad` off,

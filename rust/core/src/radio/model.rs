@@ -43,6 +43,9 @@ pub(crate) fn lookup_in(
     }
     let canon = match kind {
         TxKind::Ble => normalize_beacon_id(id).ok()?,
+        // a BSSID without upper case is its own canonical form: already
+        // looked up (most BSSIDs a phone hears are not in the model)
+        TxKind::Wifi if !id.bytes().any(|b| b.is_ascii_uppercase()) => return None,
         TxKind::Wifi => id.to_ascii_lowercase(),
     };
     by_id.get(&(kind, canon)).copied()
@@ -337,6 +340,24 @@ mod tests {
             min_range_m: 0.5,
             phone_height_m: 1.2,
         }
+    }
+
+    #[test]
+    fn lookup_tries_the_canonical_spelling() {
+        let mut by_id = BTreeMap::new();
+        by_id.insert((TxKind::Wifi, "aa:bb:cc:dd:ee:0f".to_string()), 3);
+        by_id.insert((TxKind::Ble, "AA:BB:CC:DD:EE:0F".to_string()), 4);
+        assert_eq!(
+            lookup_in(&by_id, TxKind::Wifi, "aa:bb:cc:dd:ee:0f"),
+            Some(3)
+        );
+        assert_eq!(
+            lookup_in(&by_id, TxKind::Wifi, "AA:BB:cc:DD:EE:0F"),
+            Some(3)
+        );
+        assert_eq!(lookup_in(&by_id, TxKind::Wifi, "aa:bb:cc:dd:ee:00"), None);
+        assert_eq!(lookup_in(&by_id, TxKind::Wifi, "AA:BB:CC:DD:EE:00"), None);
+        assert_eq!(lookup_in(&by_id, TxKind::Ble, "AA:BB:CC:DD:EE:0F"), Some(4));
     }
 
     #[test]

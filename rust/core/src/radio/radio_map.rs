@@ -98,6 +98,110 @@ pub struct Grid {
     pub sd_dbm_x10: Vec<i16>,
 }
 
+/// Grid values (0.1 dB) below this are looked up in [`TENTHS`].
+const TENTHS_LO: i32 = -2048;
+/// x / 10 for every x in [`TENTHS_LO`], [`TENTHS_LO`] + 4096): the
+/// grids' means and spreads (computed at compile time, the same
+/// correctly rounded division as at run time; unit test).
+static TENTHS: [f64; 4096] = {
+    let mut t = [0.0; 4096];
+    let mut i = 0;
+    while i < 4096 {
+        t[i] = (i as i32 + TENTHS_LO) as f64 / 10.0;
+        i += 1;
+    }
+    t
+};
+
+/// `f64::from(x) / 10.0`, from [`TENTHS`] where it holds x.
+#[inline(always)]
+pub(super) fn tenths(x: i16) -> f64 {
+    let i = (i32::from(x) - TENTHS_LO) as usize;
+    match TENTHS.get(i) {
+        Some(v) => *v,
+        None => f64::from(x) / 10.0,
+    }
+}
+
+/// A grid's geometry prepared for many [`Grid::sample`]s: the same
+/// values, with the division by the cell size a multiplication where
+/// that is exact (a power of two) and the tenths from [`TENTHS`].
+struct GridSampler<'a> {
+    g: &'a Grid,
+    /// 1 / cell_m when cell_m is a power of two (x / c == x * (1 / c)
+    /// exactly), else 0 (divide).
+    inv_cell: f64,
+    nx: f64,
+    ny: f64,
+}
+
+impl<'a> GridSampler<'a> {
+    fn new(g: &'a Grid) -> Self {
+        let c = g.cell_m;
+        let pow2 = c.is_normal() && c > 0.0 && (c.to_bits() & 0x000f_ffff_ffff_ffff) == 0;
+        let inv = 1.0 / c;
+        GridSampler {
+            g,
+            inv_cell: if pow2 && inv.is_normal() { inv } else { 0.0 },
+            nx: g.nx as f64,
+            ny: g.ny as f64,
+        }
+    }
+
+    /// [`Grid::sample`] at `p`, bit for bit (unit test).
+    #[inline(always)]
+    fn sample(&self, p: Vec2) -> Option<(f64, f64)> {
+        let g = self.g;
+        let (u, v) = if self.inv_cell != 0.0 {
+            (
+                (p.x - g.x0_m) * self.inv_cell,
+                (p.y - g.y0_m) * self.inv_cell,
+            )
+        } else {
+            ((p.x - g.x0_m) / g.cell_m, (p.y - g.y0_m) / g.cell_m)
+        };
+        if !(u >= 0.0 && v >= 0.0 && u < self.nx && v < self.ny) {
+            return None;
+        }
+        let (fu, fv) = (u - 0.5, v - 0.5);
+        // 0 <= max(fu, 0) < nx: the cast through i64 is floor (as
+        // Grid::sample's saturating one) in fewer instructions; fu - i0 is
+        // below 1, so clamp(0, 1) is max(0)
+        let (i0, j0) = (fu.max(0.0) as i64 as usize, fv.max(0.0) as i64 as usize);
+        let (i1, j1) = ((i0 + 1).min(g.nx - 1), (j0 + 1).min(g.ny - 1));
+        let (tx, ty) = ((fu - i0 as f64).max(0.0), (fv - j0 as f64).max(0.0));
+        let (r0, r1) = (j0.saturating_mul(g.nx), j1.saturating_mul(g.nx));
+        let ks = [
+            r0.saturating_add(i0),
+            r0.saturating_add(i1),
+            r1.saturating_add(i0),
+            r1.saturating_add(i1),
+        ];
+        let (mut m, mut s) = ([NO_VALUE; 4], [NO_VALUE; 4]);
+        let mut ok = true;
+        for c in 0..4 {
+            m[c] = g.mean_dbm_x10.get(ks[c]).copied().unwrap_or(NO_VALUE);
+            s[c] = g.sd_dbm_x10.get(ks[c]).copied().unwrap_or(NO_VALUE);
+            ok &= (m[c] != NO_VALUE) & (s[c] != NO_VALUE);
+        }
+        if !ok {
+            return g.at(u as usize, v as usize);
+        }
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let mean = lerp(
+            lerp(tenths(m[0]), tenths(m[1]), tx),
+            lerp(tenths(m[2]), tenths(m[3]), tx),
+            ty,
+        );
+        let sd = lerp(
+            lerp(tenths(s[0]), tenths(s[1]), tx),
+            lerp(tenths(s[2]), tenths(s[3]), tx),
+            ty,
+        );
+        Some((mean, sd))
+    }
+}
+
 impl Grid {
     fn at(&self, i: usize, j: usize) -> Option<(f64, f64)> {
         let k = j.checked_mul(self.nx)?.checked_add(i)?;
@@ -375,10 +479,19 @@ impl RadioModel for RadioMap {
         let apart = self.floors_apart(floor, t.floor);
         let fb = &self.fallback;
         let fast = FastFallback::new(t, e.has_pathloss, fb, apart);
-        for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
-            (*m, *s) = grid
-                .and_then(|g| g.sample(*p))
-                .unwrap_or_else(|| fast.at(*p));
+        let out = ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut());
+        match grid {
+            Some(g) => {
+                let gs = GridSampler::new(g);
+                for ((p, m), s) in out {
+                    (*m, *s) = gs.sample(*p).unwrap_or_else(|| fast.at(*p));
+                }
+            }
+            None => {
+                for ((p, m), s) in out {
+                    (*m, *s) = fast.at(*p);
+                }
+            }
         }
         true
     }

@@ -376,3 +376,68 @@ fn tcpf_tracks_a_walk_with_a_radio_map_from_a_survey() {
     let out = replay(plain.as_mut(), walk_north(10, None));
     assert!(out.scored.iter().all(|s| s.error_m().is_none()));
 }
+
+#[test]
+fn the_tenths_table_is_the_division() {
+    for x in i16::MIN..=i16::MAX {
+        assert_eq!(tenths(x).to_bits(), (f64::from(x) / 10.0).to_bits(), "{x}");
+    }
+}
+
+#[test]
+fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
+    // cells of 2 m (power of two: multiplied) and 0.7 m (divided), values
+    // in and out of the table, holes, points outside and on the edges
+    for (cell_m, x0_m) in [(2.0, 180.189_042_152_872_56), (0.7, -3.3), (1.0, 0.0)] {
+        let (nx, ny) = (13usize, 9usize);
+        let n = nx * ny;
+        let mean: Vec<i16> = (0..n)
+            .map(|k| {
+                if k % 11 == 3 {
+                    NO_VALUE
+                } else {
+                    -2500 + (k as i16 * 37) % 2600
+                }
+            })
+            .collect();
+        let sd: Vec<i16> = (0..n)
+            .map(|k| {
+                if k % 17 == 5 {
+                    NO_VALUE
+                } else {
+                    20 + (k as i16 * 13) % 700
+                }
+            })
+            .collect();
+        let g = Grid {
+            floor: 0,
+            x0_m,
+            y0_m: 7.25,
+            cell_m,
+            nx,
+            ny,
+            mean_dbm_x10: mean,
+            sd_dbm_x10: sd,
+        };
+        let gs = GridSampler::new(&g);
+        let w = nx as f64 * cell_m;
+        let h = ny as f64 * cell_m;
+        let mut checked = 0;
+        for i in -20..=420 {
+            for j in -20..=300 {
+                let p = Vec2::new(
+                    x0_m + w * f64::from(i) / 400.0 + 1e-3 * f64::from(j % 7),
+                    7.25 + h * f64::from(j) / 280.0,
+                );
+                let (a, b) = (g.sample(p), gs.sample(p));
+                assert_eq!(
+                    a.map(|(m, s)| (m.to_bits(), s.to_bits())),
+                    b.map(|(m, s)| (m.to_bits(), s.to_bits())),
+                    "{p:?}"
+                );
+                checked += usize::from(a.is_some());
+            }
+        }
+        assert!(checked > 50_000, "{checked}");
+    }
+}

@@ -216,9 +216,13 @@ pub struct ReferenceScans {
     ids: Vec<(TxKind, String)>,
     index: BTreeMap<(TxKind, String), u32>,
     scans: Vec<ReferenceScan>,
-    /// Per transmitter: (scan index, RSSI floored at `missing_dbm`) of
-    /// every scan that heard it (the query visits only these).
-    postings: Vec<Vec<(u32, f64)>>,
+    /// Per transmitter j, entries `post_start[j]..post_start[j + 1]` of
+    /// `post_scan` / `post_r10`: (scan index, its RSSI x 10 dBm) of every
+    /// scan that heard it (the query visits only these; 6 bytes an entry,
+    /// the RSSI floored at `missing_dbm` as it is read).
+    post_start: Vec<u32>,
+    post_scan: Vec<u32>,
+    post_r10: Vec<i16>,
     /// Per scan and radio (BLE, WiFi): sum of (r - missing)^2 and count,
     /// the scan's side of "heard on one side only".
     alone: Vec<[(f64, u32); 2]>,
@@ -289,18 +293,33 @@ impl ReferenceScans {
             }
         }
         let m = cfg.missing_dbm;
-        let mut postings: Vec<Vec<(u32, f64)>> = vec![Vec::new(); ids.len()];
         let mut alone = Vec::with_capacity(scans.len());
         let powed_table: Vec<f64> = (0..=(-m * 10.0).round() as usize)
             .map(|i| powed_level(m + i as f64 / 10.0, m))
             .collect();
         let mut powed_alone = Vec::with_capacity(scans.len());
+        // postings by counting: entries per transmitter, their starts,
+        // then each scan's entries in scan order
+        let mut post_start = vec![0u32; ids.len() + 1];
+        for s in &scans {
+            for &(j, _) in &s.tx {
+                post_start[j as usize + 1] += 1;
+            }
+        }
+        for j in 0..ids.len() {
+            post_start[j + 1] += post_start[j];
+        }
+        let mut next: Vec<u32> = post_start[..ids.len()].to_vec();
+        let (mut post_scan, mut post_r10) = (vec![0u32; entries], vec![0i16; entries]);
         for (si, s) in scans.iter().enumerate() {
             let mut a = [(0.0, 0u32); 2];
             let mut p = [0.0; 2];
             for &(j, r10) in &s.tx {
                 let r = (f64::from(r10) / 10.0).max(m);
-                postings[j as usize].push((si as u32, r));
+                let e = &mut next[j as usize];
+                post_scan[*e as usize] = si as u32;
+                post_r10[*e as usize] = r10;
+                *e += 1;
                 let k = radio_slot(ids[j as usize].0);
                 let slot = &mut a[k];
                 slot.0 += (r - m) * (r - m);
@@ -315,7 +334,9 @@ impl ReferenceScans {
             ids,
             index,
             scans,
-            postings,
+            post_start,
+            post_scan,
+            post_r10,
             alone,
             powed_alone,
             powed_table,
@@ -406,7 +427,13 @@ impl ReferenceScans {
         for &(j, a) in &q {
             let pa = powed_level(a, m);
             q_powed += pa;
-            for &(si, r) in &self.postings[j as usize] {
+            let (lo, hi) = (
+                self.post_start[j as usize] as usize,
+                self.post_start[j as usize + 1] as usize,
+            );
+            for (&si, &r10) in self.post_scan[lo..hi].iter().zip(&self.post_r10[lo..hi]) {
+                // the same value as `new` floors for the sums (f64 / 10)
+                let r = super::radio_map::tenths(r10).max(m);
                 let e = &mut shared[si as usize];
                 e.0 += (a - r) * (a - r) - (a - m) * (a - m) - (r - m) * (r - m);
                 e.1 += 1;
@@ -656,7 +683,12 @@ impl ScanTrail {
 
     /// A WiFi result of `bssid` heard at `t_ns`, if `scans` knows it.
     pub fn push_wifi(&mut self, scans: &ReferenceScans, bssid: &str, t_ns: i64, rssi_dbm: f64) {
-        if let Some(j) = scans.index_of(TxKind::Wifi, &bssid.to_ascii_lowercase()) {
+        let j = if bssid.bytes().any(|b| b.is_ascii_uppercase()) {
+            scans.index_of(TxKind::Wifi, &bssid.to_ascii_lowercase())
+        } else {
+            scans.index_of(TxKind::Wifi, bssid)
+        };
+        if let Some(j) = j {
             self.push(t_ns, j, rssi_dbm);
         }
     }

@@ -547,9 +547,10 @@ impl TcpfEngine {
         if sd <= 0.0 || self.pf.state().is_empty() {
             return;
         }
-        for i in 0..self.pf.state().len() {
-            let z = self.pf.draw_normal();
-            let o = &mut self.pf.state_mut()[i];
+        // the same draws as one draw_normal per particle in turn, batched
+        let mut z = vec![0.0; self.pf.state().len()];
+        self.pf.draw_normals(&mut z);
+        for (o, z) in self.pf.state_mut().iter_mut().zip(&z) {
             *o = (*o + sd * z).clamp(-m, m);
         }
     }

@@ -45,6 +45,19 @@ fn small_sin_cos(x: f64) -> (f64, f64) {
     (s, c)
 }
 
+/// A step of `len` metres along the yaw whose sine and cosine are `sy`,
+/// `cy`, turned by `d` radians (the particle's heading offset and draw).
+#[inline]
+fn step_vector(len: f64, d: f64, sy: f64, cy: f64) -> Vec2 {
+    let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
+        small_sin_cos(d)
+    } else {
+        d.sin_cos()
+    };
+    let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
+    Vec2::new(len * c, len * s)
+}
+
 /// One standard normal draw (Box-Muller, one of the pair): the logarithm
 /// by [`ln_normal`] (relative 1e-10, u1 is a normal number), the cosine
 /// by [`crate::fast_math::cos_turns`] (within 1e-15 of `f64::cos`).
@@ -422,14 +435,7 @@ impl ParticleFilter {
             let nu_s = ds * (2.0 * u_s - 1.0);
             let nu_th = dth * (2.0 * u_th - 1.0);
             let len = (step_length_m * *scale + nu_s).max(0.0);
-            let d = *off + nu_th;
-            let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
-                small_sin_cos(d)
-            } else {
-                d.sin_cos()
-            };
-            let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
-            *p += Vec2::new(len * c, len * s);
+            *p += step_vector(len, *off + nu_th, sy, cy);
         }
     }
 
@@ -972,14 +978,7 @@ mod tests {
             let nu_s = ds * (2.0 * pf.rng.random::<f64>() - 1.0);
             let nu_th = dth * (2.0 * pf.rng.random::<f64>() - 1.0);
             let len = (step_length_m * *scale + nu_s).max(0.0);
-            let d = *off + nu_th;
-            let (sn, cn) = if d.abs() <= SMALL_ANGLE_MAX_RAD {
-                small_sin_cos(d)
-            } else {
-                d.sin_cos()
-            };
-            let (s, c) = (sy * cn + cy * sn, cy * cn - sy * sn);
-            *p += Vec2::new(len * c, len * s);
+            *p += step_vector(len, *off + nu_th, sy, cy);
         }
         let sd = pf.extra_noise_m;
         if sd > 0.0 {

@@ -70,6 +70,12 @@ pub fn powed_level(rssi_dbm: f64, missing_dbm: f64) -> f64 {
     span * x.powf(POWED_BETA)
 }
 
+/// [`powed_level`] of a scan's RSSI `r` (floored at `missing_dbm`, in
+/// 0.1 dB) from `table` (the levels from `missing_dbm` up in 0.1 dB).
+fn tabled_level(table: &[f64], r: f64, missing_dbm: f64) -> f64 {
+    table[(((r - missing_dbm) * 10.0).round() as usize).min(table.len() - 1)]
+}
+
 /// How reference scans are cut from survey walks.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -324,7 +330,7 @@ impl ReferenceScans {
                 let slot = &mut a[k];
                 slot.0 += (r - m) * (r - m);
                 slot.1 += 1;
-                p[k] += powed_level(r, m);
+                p[k] += tabled_level(&powed_table, r, m);
             }
             alone.push(a);
             powed_alone.push(p);
@@ -422,10 +428,9 @@ impl ReferenceScans {
         } else {
             Vec::new()
         };
-        let top = self.powed_table.len() - 1;
         let mut q_powed = 0.0;
         for &(j, a) in &q {
-            let pa = powed_level(a, m);
+            let pa = if powed { powed_level(a, m) } else { 0.0 };
             q_powed += pa;
             let (lo, hi) = (
                 self.post_start[j as usize] as usize,
@@ -438,8 +443,7 @@ impl ReferenceScans {
                 e.0 += (a - r) * (a - r) - (a - m) * (a - m) - (r - m) * (r - m);
                 e.1 += 1;
                 if powed {
-                    let pr = self.powed_table[(((r - m) * 10.0).round() as usize).min(top)];
-                    shared_min[si as usize] += pa.min(pr);
+                    shared_min[si as usize] += pa.min(tabled_level(&self.powed_table, r, m));
                 }
             }
         }

@@ -150,6 +150,7 @@ fn main() -> anyhow::Result<()> {
         version: 1,
         name: "fpbp demo site".into(),
         map_from_enu_rad: 0.0,
+        heading_bias_rad: 0.0,
         legend,
         grid_interval_m: 1.0,
         floors: vec![FloorSpec {

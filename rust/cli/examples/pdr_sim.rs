@@ -83,7 +83,7 @@ fn main() -> Result<()> {
             let log = simulate(&site, &req)?;
             let traj = &log.trajectory;
             let t0 = req.t0_ns;
-            let mut pdr = Pdr::new(&cfg, site.spec.map_from_enu_rad);
+            let mut pdr = Pdr::new(&cfg, site.spec.pdr_rotation_rad());
             let mut steps = Vec::new();
             for e in &log.events {
                 if let LogEvent::Sensor(s) = e {

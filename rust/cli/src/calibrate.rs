@@ -16,10 +16,12 @@ use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::map::{Feature, FloorMap};
+use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::site::SiteSpec;
 use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
 use fpbp_logs::{ReadOptions, read_all};
 
+use crate::common::{InitMode, LoadedLog, core_builder, run_log};
 use crate::eval::{Split, select_logs};
 
 /// Arguments of `fpbp calibrate`.
@@ -236,6 +238,33 @@ fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
     Ok(())
 }
 
+/// The survey log's PDR-vs-truth displacements ([`segments`]): the `pdr`
+/// engine replayed from the log's first truth point on the input site.
+fn pdr_segments(
+    path: &Path,
+    events: &[LogEvent],
+    site: &Arc<fpbp_core::site::Site>,
+    cfg: &EngineConfig,
+) -> Result<Vec<HeadingSegment>> {
+    if !events.iter().any(|e| matches!(e, LogEvent::Truth(_))) {
+        return Ok(Vec::new());
+    }
+    let log = LoadedLog {
+        path: path.to_path_buf(),
+        name: path.display().to_string(),
+        events: events.to_vec(),
+        report: Default::default(),
+    };
+    let run = run_log(&core_builder, "pdr", site, cfg, InitMode::Truth, &log)?;
+    Ok(segments(&run.out.scored))
+}
+
+fn wrap_pi(a: f64) -> f64 {
+    let t = std::f64::consts::TAU;
+    let r = a.rem_euclid(t);
+    if r > std::f64::consts::PI { r - t } else { r }
+}
+
 pub fn run(args: Args) -> Result<()> {
     let spec = load_spec(&args.site)?;
     let cfg = load_config(args.config.as_ref())?;
@@ -246,11 +275,14 @@ pub fn run(args: Args) -> Result<()> {
     let opts = read_options(&spec, args.floor);
     let mut paths = Vec::new();
     let mut wifi_paths = Vec::new();
+    let mut heading_segments = Vec::new();
+    let input = crate::site_io::load_site(&args.site)?;
     let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
         bar.set_message(format!("reading {}", l.display()));
         bar.inc(1);
         let events = load_events(l, &opts)?;
+        heading_segments.extend(pdr_segments(l, &events, &input, &cfg)?);
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()
@@ -280,7 +312,6 @@ pub fn run(args: Args) -> Result<()> {
     bar.set_message("fitting beacons");
     let (mut reports, mut summary) = calibrate(&paths, &cfg.ble).context("calibration")?;
     bar.finish_and_clear();
-    let input = crate::site_io::load_site(&args.site)?;
     place_on_maps(&mut reports, &mut summary, &input);
     print_table(&reports);
     let too_little = reports.iter().filter(|r| r.x_m.is_none()).count();
@@ -296,6 +327,24 @@ pub fn run(args: Args) -> Result<()> {
         summary.accepted
     );
     let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
+    match heading_bias(&heading_segments) {
+        Some(b) => {
+            out.heading_bias_rad = wrap_pi(spec.heading_bias_rad + b.rad);
+            println!(
+                "heading bias: the PDR meets the truth turned by {:+.1} deg ({} segments, sd {:.1} deg, {} left out); site heading_bias_rad {:.4}",
+                b.rad.to_degrees(),
+                b.segments,
+                b.sd_rad.to_degrees(),
+                b.left_out,
+                out.heading_bias_rad
+            );
+        }
+        None => println!(
+            "heading bias: too few PDR segments ({}), heading_bias_rad kept at {:.4}",
+            heading_segments.len(),
+            spec.heading_bias_rad
+        ),
+    }
     if args.wifi {
         out = calibrate_wifi(&args, &wifi_paths, &cfg, &input, &out)?;
     }

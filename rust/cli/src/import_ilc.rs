@@ -232,6 +232,7 @@ pub fn import(args: &Args) -> Result<IlcReport> {
         version: 1,
         name: site_name,
         map_from_enu_rad: 0.0,
+        heading_bias_rad: 0.0,
         legend,
         grid_interval_m: 1.0,
         floors: vec![FloorSpec {

@@ -577,6 +577,7 @@ pub fn import(args: &Args) -> Result<IpinReport> {
                are open floors: no map images)"
             .into(),
         map_from_enu_rad: frame.map_from_enu_rad,
+        heading_bias_rad: 0.0,
         legend,
         grid_interval_m: 1.0,
         floors,

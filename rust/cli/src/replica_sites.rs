@@ -74,6 +74,7 @@ fn site_spec(
         version: 1,
         name: name.into(),
         map_from_enu_rad: 0.0,
+        heading_bias_rad: 0.0,
         legend: Legend::default(),
         grid_interval_m: 1.0,
         floors: floors

@@ -31,9 +31,16 @@ pub struct SiteSpec {
     pub name: String,
     /// Rotation from the east-north frame to the MCS, radians, counter-clockwise:
     /// a vector [e, n] in ENU is [x, y] = R(map_from_enu_rad) [e, n] in the MCS.
-    /// Magnetic declination is folded in here.
+    /// A geometric rotation (it also places lat/lon truth and GNSS).
     #[serde(default)]
     pub map_from_enu_rad: f64,
+    /// Added to every phone's heading on top of `map_from_enu_rad`,
+    /// radians, counter-clockwise: magnetic declination and whatever else
+    /// turns the phones' heading away from the map in this building, as
+    /// `fpbp calibrate` measures it on survey walks with truth
+    /// ([`crate::pdr::heading_bias`]). Left out of the file when 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub heading_bias_rad: f64,
     /// Colour legend of the stylized plans.
     #[serde(default)]
     pub legend: Legend,
@@ -54,6 +61,10 @@ pub struct SiteSpec {
     /// Optional WGS-84 georeference of the MCS (for GNSS and lat/lon truth).
     #[serde(default)]
     pub georef: Option<GeoRef>,
+}
+
+fn is_zero(v: &f64) -> bool {
+    *v == 0.0
 }
 
 fn default_grid_interval_m() -> f64 {
@@ -175,6 +186,12 @@ fn site_err(file: &str, field: impl Into<String>, msg: impl Into<String>) -> Err
 }
 
 impl SiteSpec {
+    /// The rotation the PDR applies to the phone's east-north heading to
+    /// walk in the MCS: the map's rotation plus the site's heading bias.
+    pub fn pdr_rotation_rad(&self) -> f64 {
+        self.map_from_enu_rad + self.heading_bias_rad
+    }
+
     /// Parses site.json bytes. Syntax errors, unknown and missing fields and
     /// wrong types become [`Error::Site`] naming `file_name`, the JSON path of
     /// the field (e.g. `floors[0].pixels_per_meter`) and the line/column.
@@ -215,6 +232,14 @@ impl SiteSpec {
         }
         if !self.map_from_enu_rad.is_finite() {
             return Err(site_err(file, "map_from_enu_rad", "must be finite"));
+        }
+        if !self.heading_bias_rad.is_finite() || self.heading_bias_rad.abs() > std::f64::consts::PI
+        {
+            return Err(site_err(
+                file,
+                "heading_bias_rad",
+                format!("must be within [-pi, pi], got {}", self.heading_bias_rad),
+            ));
         }
         let l = &self.legend;
         if !(l.tolerance >= 0.0 && l.tolerance.is_finite()) {

@@ -46,6 +46,7 @@ pub fn two_rooms_site() -> Site {
             version: 1,
             name: "two-rooms".into(),
             map_from_enu_rad: 0.3,
+            heading_bias_rad: 0.0,
             legend: Legend::default(),
             grid_interval_m: 1.0,
             floors: vec![FloorSpec {

@@ -157,7 +157,7 @@ impl FusionSide {
         init: Option<InitialPosition>,
     ) -> Result<Self> {
         let mut side = FusionSide {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             pf: ParticleFilter::new(&config.fusion, config.seed),
             cfg: config.fusion.clone(),
             use_ppc,

@@ -54,7 +54,7 @@ impl PdrEngine {
             )));
         }
         Ok(PdrEngine {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             site,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             x_m: init.x_m,

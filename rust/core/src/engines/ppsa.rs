@@ -170,7 +170,7 @@ impl PpsaEngine {
         config.validate()?;
         let init = init.filter(|i| i.x_m.is_finite() && i.y_m.is_finite());
         Ok(PpsaEngine {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             front: BleFrontEnd::new(&config.ble, &site),
             nlos: NlosIdentifier::new(&config.ble.nlos, config.ble.min_distance_m),
             phone_height_m: config.ble.phone_height_m,

@@ -337,7 +337,7 @@ impl ProxPfEngine {
         let cfg = config.prox_pf.clone();
         let init = init.filter(|i| i.x_m.is_finite() && i.y_m.is_finite());
         Ok(ProxPfEngine {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             front: BleFrontEnd::new(&config.ble, &site),
             top_n: config.ble.gml.top_n,
             rng: Pcg64::seed_from_u64(config.seed),

@@ -114,7 +114,7 @@ impl RobustEkfEngine {
         }
         p[(2, 2)] = 1.0;
         Ok(RobustEkfEngine {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             ble_cfg: config.ble.clone(),
             cfg: config.ekf.clone(),
             front,

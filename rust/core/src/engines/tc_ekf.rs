@@ -90,7 +90,7 @@ impl TcEkfEngine {
             initialised = true;
         }
         Ok(TcEkfEngine {
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             ble_cfg: config.ble.clone(),
             cfg: config.ekf.clone(),
             front,

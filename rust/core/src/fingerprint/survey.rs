@@ -94,7 +94,7 @@ impl<'a> SurveyBuilder<'a> {
     /// Adds one walked log (time-ordered events with truth points).
     pub fn add_log(&mut self, events: &[LogEvent]) -> LogSurvey {
         let mut rep = LogSurvey::default();
-        let mut pdr = Pdr::new(&self.pdr, self.site.spec.map_from_enu_rad);
+        let mut pdr = Pdr::new(&self.pdr, self.site.spec.pdr_rotation_rad());
         let mut front = BleFrontEnd::new(&self.ble, self.site);
         let interval_ns = (self.cfg.survey_sample_interval_s * 1e9) as i64;
         let mut steps = Vec::new();

@@ -46,6 +46,7 @@ pub(crate) fn beacon_site(
         version: 1,
         name: name.into(),
         map_from_enu_rad: 0.0,
+        heading_bias_rad: 0.0,
         legend: Legend::default(),
         grid_interval_m: 1.0,
         floors,

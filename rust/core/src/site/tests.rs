@@ -244,3 +244,24 @@ proptest::proptest! {
         }
     }
 }
+
+#[test]
+fn heading_bias_is_read_checked_and_left_out_when_zero() {
+    let with = GOOD.replace(
+        r#""name": "tiny","#,
+        r#""name": "tiny", "heading_bias_rad": 0.06,"#,
+    );
+    let site = load(&with).unwrap();
+    assert_eq!(site.spec.heading_bias_rad, 0.06);
+    assert!((site.spec.pdr_rotation_rad() - (site.spec.map_from_enu_rad + 0.06)).abs() < 1e-15);
+    assert!(site.spec.to_json_pretty().contains("heading_bias_rad"));
+    let zero = load(GOOD).unwrap();
+    assert_eq!(zero.spec.heading_bias_rad, 0.0);
+    assert!(!zero.spec.to_json_pretty().contains("heading_bias_rad"));
+    let (field, msg) = err(&GOOD.replace(
+        r#""name": "tiny","#,
+        r#""name": "tiny", "heading_bias_rad": 4.0,"#,
+    ));
+    assert_eq!(field, "heading_bias_rad", "{msg}");
+    assert!(msg.contains("got 4"), "{msg}");
+}

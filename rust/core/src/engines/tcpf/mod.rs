@@ -307,7 +307,7 @@ impl TcpfEngine {
             .collect();
         let mut e = TcpfEngine {
             walled,
-            pdr: Pdr::new(&config.pdr, site.spec.map_from_enu_rad),
+            pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             pf: ParticleFilter::new(&cfg.filter(), config.seed),
             floors: FloorTracker::for_site(&config.ekf.floor, &site, start_floor),
             window: ScanWindow::default(),

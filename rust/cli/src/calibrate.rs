@@ -329,10 +329,16 @@ pub fn run(args: Args) -> Result<()> {
     let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
     match heading_bias(&heading_segments) {
         Some(b) => {
-            out.heading_bias_rad = wrap_pi(spec.heading_bias_rad + b.rad);
+            let verdict = if b.significant() {
+                out.heading_bias_rad = wrap_pi(spec.heading_bias_rad + b.rad);
+                "applied"
+            } else {
+                "within its noise, not applied"
+            };
             println!(
-                "heading bias: the PDR meets the truth turned by {:+.1} deg ({} segments, sd {:.1} deg, {} left out); site heading_bias_rad {:.4}",
+                "heading bias: the PDR meets the truth turned by {:+.1} deg, standard error {:.1} deg ({} segments, sd {:.1} deg, {} left out): {verdict}; site heading_bias_rad {:.4}",
                 b.rad.to_degrees(),
+                b.se_rad().to_degrees(),
                 b.segments,
                 b.sd_rad.to_degrees(),
                 b.left_out,

@@ -25,6 +25,10 @@ pub const MAX_RESIDUAL_RAD: f64 = std::f64::consts::FRAC_PI_4;
 /// Fewest segments a bias is reported from.
 pub const MIN_SEGMENTS: usize = 10;
 
+/// Standard errors a bias must stand from 0 to be applied
+/// ([`HeadingBias::significant`]).
+pub const SIGNIFICANT_SE: f64 = 2.0;
+
 /// One displacement between consecutive truth points, and the PDR's over
 /// the same time.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -52,6 +56,22 @@ pub struct HeadingBias {
     pub left_out: usize,
     /// Length-weighted RMS of the used segments' angles about `rad`.
     pub sd_rad: f64,
+}
+
+impl HeadingBias {
+    /// Standard error of `rad`: `sd_rad` over the root of the segments
+    /// (optimistic: segments of one walk share its phone's own offset).
+    pub fn se_rad(&self) -> f64 {
+        self.sd_rad / (self.segments as f64).sqrt()
+    }
+
+    /// Whether the bias stands out of its noise: more than
+    /// [`SIGNIFICANT_SE`] standard errors from 0. A site whose bias does
+    /// not keep the one it had (ILC F4 even: -0.7 deg at 2.0 deg standard
+    /// error; IPIN even -0.1 at 1.1; ILC F1 even +3.7 at 0.9 is kept).
+    pub fn significant(&self) -> bool {
+        self.rad.abs() > SIGNIFICANT_SE * self.se_rad()
+    }
 }
 
 /// Segments of one replay of a PDR-only engine started at the truth: from
@@ -165,6 +185,18 @@ mod tests {
         let b = heading_bias(&walk(-0.3, 0.1, 20)).unwrap();
         assert!((b.rad + 0.3).abs() < 0.01, "{b:?}");
         assert!((b.sd_rad - 0.1).abs() < 0.01, "{b:?}");
+        assert!((b.se_rad() - b.sd_rad / 20f64.sqrt()).abs() < 1e-15);
+        assert!(b.significant());
+    }
+
+    #[test]
+    fn a_bias_within_its_noise_is_not_significant() {
+        // +-0.2 rad per segment about 0.05: se 0.045, 0.05 < 2 se
+        let b = heading_bias(&walk(0.05, 0.2, 20)).unwrap();
+        assert!((b.rad - 0.05).abs() < 0.01, "{b:?}");
+        assert!(!b.significant(), "{b:?}");
+        let b = heading_bias(&walk(0.05, 0.02, 20)).unwrap();
+        assert!(b.significant(), "{b:?}");
     }
 
     #[test]

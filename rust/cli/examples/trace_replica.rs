@@ -8,7 +8,9 @@
 //!
 //! WALK is the 0-based index of the paper's replica walk, SEED is both the
 //! walk's and the engine's seed (as in `fpbp reproduce`), CONFIG_JSON is
-//! merged over the default engine config (objects recursively).
+//! merged over the default engine config (objects recursively). The
+//! environment variable PROFILE_PATCH (JSON) is merged over the walk's
+//! simulator profile.
 
 use std::path::Path;
 
@@ -57,6 +59,18 @@ fn main() -> Result<()> {
     )?;
     let walks = fpbp_sim::replica::replica_walks(paper)?;
     let walk = walks.get(walk_k).context("no such walk")?;
+    // PROFILE_PATCH: JSON merged over the walk's simulator profile (channel
+    // experiments, as `fpbp reproduce --profile-patch`).
+    let mut profile = walk.profile.clone();
+    if let Ok(patch) = std::env::var("PROFILE_PATCH") {
+        let mut v = serde_json::to_value(&profile)?;
+        merge(
+            &mut v,
+            &serde_json::from_str(&patch).context("PROFILE_PATCH")?,
+        );
+        profile = serde_json::from_value(v)?;
+        profile.validate()?;
+    }
     let sim = fpbp_sim::simulate(
         &site,
         &fpbp_sim::SimRequest {
@@ -64,7 +78,7 @@ fn main() -> Result<()> {
             seed,
             floor: None,
             t0_ns: fpbp_sim::DEFAULT_T0_NS,
-            profile: walk.profile.clone(),
+            profile,
         },
     )?;
     let truth: Vec<TruthPoint> = sim

@@ -1,6 +1,8 @@
 //! Traces one engine on one replica walk (docs/reproduction.md): after every
 //! task run, the engine's pose and its BLE-only position (x_B, when it has
-//! one) beside the truth at that time, as CSV on stdout; a summary on stderr.
+//! one) beside the truth at that time, and the pose's accuracy (for `fpbp`
+//! and `bp` the particle cloud's spread, at least 0.5 m), as CSV on stdout;
+//! a summary on stderr.
 //! For finding where and why an engine leaves the walker.
 //!
 //! Usage: cargo run --release -p fpbp-cli --example trace_replica --
@@ -8,7 +10,9 @@
 //!
 //! WALK is the 0-based index of the paper's replica walk, SEED is both the
 //! walk's and the engine's seed (as in `fpbp reproduce`), CONFIG_JSON is
-//! merged over the default engine config (objects recursively).
+//! merged over the default engine config (objects recursively). The
+//! environment variable PROFILE_PATCH (JSON) is merged over the walk's
+//! simulator profile.
 
 use std::path::Path;
 
@@ -57,6 +61,18 @@ fn main() -> Result<()> {
     )?;
     let walks = fpbp_sim::replica::replica_walks(paper)?;
     let walk = walks.get(walk_k).context("no such walk")?;
+    // PROFILE_PATCH: JSON merged over the walk's simulator profile (channel
+    // experiments, as `fpbp reproduce --profile-patch`).
+    let mut profile = walk.profile.clone();
+    if let Ok(patch) = std::env::var("PROFILE_PATCH") {
+        let mut v = serde_json::to_value(&profile)?;
+        merge(
+            &mut v,
+            &serde_json::from_str(&patch).context("PROFILE_PATCH")?,
+        );
+        profile = serde_json::from_value(v)?;
+        profile.validate()?;
+    }
     let sim = fpbp_sim::simulate(
         &site,
         &fpbp_sim::SimRequest {
@@ -64,7 +80,7 @@ fn main() -> Result<()> {
             seed,
             floor: None,
             t0_ns: fpbp_sim::DEFAULT_T0_NS,
-            profile: walk.profile.clone(),
+            profile,
         },
     )?;
     let truth: Vec<TruthPoint> = sim
@@ -89,7 +105,9 @@ fn main() -> Result<()> {
     let periods = Task::ALL.map(|t| e.task_period_ns(t).filter(|p| *p > 0));
     let t0 = sim.events.first().map_or(0, LogEvent::t_ns);
     let mut due = periods.map(|p| p.map(|p| t0 + p));
-    println!("t_s,task,truth_x,truth_y,truth_floor,x,y,floor,err,fix_x,fix_y,fix_floor,fix_err");
+    println!(
+        "t_s,task,truth_x,truth_y,truth_floor,x,y,floor,err,fix_x,fix_y,fix_floor,fix_err,accuracy"
+    );
     let (mut sum, mut n, mut fsum, mut fn_) = (0.0, 0usize, 0.0, 0usize);
     let mut run_until = |e: &mut Box<dyn Engine>, t: i64| loop {
         let mut best: Option<(i64, usize)> = None;
@@ -122,7 +140,7 @@ fn main() -> Result<()> {
         let o = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.2}"));
         let oi = |v: Option<i32>| v.map_or(String::new(), |v| v.to_string());
         println!(
-            "{:.2},{:?},{tx:.2},{ty:.2},{},{},{},{},{},{},{},{},{}",
+            "{:.2},{:?},{tx:.2},{ty:.2},{},{},{},{},{},{},{},{},{},{}",
             (d - t0) as f64 * 1e-9,
             Task::ALL[i],
             oi(tf),
@@ -133,7 +151,8 @@ fn main() -> Result<()> {
             o(fix.map(|p| p.x_m)),
             o(fix.map(|p| p.y_m)),
             oi(fix.map(|p| p.floor)),
-            o(ferr)
+            o(ferr),
+            o(pose.map(|p| p.accuracy_m))
         );
     };
     for ev in &sim.events {

@@ -41,6 +41,16 @@ pub struct Args {
     /// Scale every walk's length (1 = the replica walks; CI uses a small one).
     #[arg(long, default_value_t = 1.0)]
     pub duration_scale: f64,
+    /// JSON merged over every replica walk's simulator profile, e.g.
+    /// `{"ble":{"shadowing_sigma_db":2}}` (channel experiments; the printed
+    /// figures are then not the pinned replica's).
+    #[arg(long)]
+    pub profile_patch: Option<String>,
+    /// JSON merged over every variant's engine config after the paper's
+    /// base config and the variant's own (experiments; the printed figures
+    /// are then not the paper set-up's).
+    #[arg(long)]
+    pub engine_patch: Option<String>,
 }
 
 /// What a paper figure is.
@@ -348,9 +358,14 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
     })
 }
 
-fn config_for(spec: &PaperSpec, var: &Variant, seed: u64) -> anyhow::Result<EngineConfig> {
+fn config_for(
+    spec: &PaperSpec,
+    var: &Variant,
+    seed: u64,
+    engine_patch: Option<&str>,
+) -> anyhow::Result<EngineConfig> {
     let mut value = serde_json::to_value(EngineConfig::default())?;
-    for patch in [spec.base_config, var.config] {
+    for patch in [spec.base_config, var.config, engine_patch.unwrap_or("{}")] {
         let p: serde_json::Value =
             serde_json::from_str(patch).with_context(|| format!("config patch {patch}"))?;
         merge(&mut value, &p);
@@ -458,8 +473,21 @@ pub fn reproduce_paper(
     site: &Arc<Site>,
     seeds: u64,
     duration_scale: f64,
+    profile_patch: Option<&str>,
+    engine_patch: Option<&str>,
 ) -> anyhow::Result<PaperResult> {
-    let walks = replica_walks(spec.replica)?;
+    let mut walks = replica_walks(spec.replica)?;
+    if let Some(patch) = profile_patch {
+        let p: serde_json::Value =
+            serde_json::from_str(patch).with_context(|| format!("profile patch {patch}"))?;
+        for w in &mut walks {
+            let mut value = serde_json::to_value(&w.profile)?;
+            merge(&mut value, &p);
+            w.profile = serde_json::from_value(value)
+                .with_context(|| format!("profile patch {patch} on {}", w.name))?;
+            w.profile.validate()?;
+        }
+    }
     let mut results: Vec<VariantResult> = spec
         .variants
         .iter()
@@ -503,7 +531,7 @@ pub fn reproduce_paper(
                 report: Default::default(),
             };
             for (k, var) in spec.variants.iter().enumerate() {
-                let cfg = config_for(spec, var, seed)?;
+                let cfg = config_for(spec, var, seed, engine_patch)?;
                 let run = common::run_log(
                     &common::core_builder,
                     var.engine,
@@ -647,13 +675,26 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let maps = crate::demo::resolve(&args.maps);
     let started = std::time::Instant::now();
+    if let Some(p) = &args.profile_patch {
+        println!("simulator profile patch (not the pinned replicas): {p}");
+    }
+    if let Some(p) = &args.engine_patch {
+        println!("engine config patch (not the papers' set-ups): {p}");
+    }
     for name in papers {
         let spec = paper_spec(name)?;
         let site_path = maps
             .join(format!("replica-{}", spec.replica))
             .join("site.json");
         let site = crate::site_io::load_site(&site_path)?;
-        let r = reproduce_paper(&spec, &site, args.seeds, args.duration_scale)?;
+        let r = reproduce_paper(
+            &spec,
+            &site,
+            args.seeds,
+            args.duration_scale,
+            args.profile_patch.as_deref(),
+            args.engine_patch.as_deref(),
+        )?;
         let dir = args.out.join(spec.replica);
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot create {}", dir.display()))?;

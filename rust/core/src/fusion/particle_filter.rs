@@ -84,16 +84,16 @@ fn std_normals(rng: &mut Pcg64, out: &mut [f64], u2: &mut Vec<f64>) {
         *a = rng.random::<f64>();
         *b = rng.random::<f64>();
     }
-    for (a, b) in out.iter_mut().zip(u2.iter()) {
-        *a = box_muller(*a, *b);
-    }
+    box_muller_in_place(out, u2);
 }
 
 /// `u1[i]` := [`box_muller`]`(u1[i], u2[i])` for every i.
 fn box_muller_in_place(u1: &mut [f64], u2: &[f64]) {
-    for (a, b) in u1.iter_mut().zip(u2) {
-        *a = box_muller(*a, *b);
-    }
+    crate::simd::run(|| {
+        for (a, b) in u1.iter_mut().zip(u2) {
+            *a = box_muller(*a, *b);
+        }
+    });
 }
 
 /// Normalises `weights` to sum 1 (uniform when they are all zero or not finite).

@@ -317,11 +317,14 @@ pub(crate) fn pathloss_many(
     // NaN positions count at the floored range as in `range_m`, infinite
     // ones at the largest finite range
     let lo = min2.max(f64::MIN_POSITIVE);
-    for (p, m) in ps.iter().zip(mean.iter_mut()) {
-        let (dx, dy) = (p.x - t.pos.x, p.y - t.pos.y);
-        let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);
-        *m = r0 - k * ln_normal(d2);
-    }
+    let tp = t.pos;
+    crate::simd::run(|| {
+        for (p, m) in ps.iter().zip(mean.iter_mut()) {
+            let (dx, dy) = (p.x - tp.x, p.y - tp.y);
+            let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);
+            *m = r0 - k * ln_normal(d2);
+        }
+    });
     let n = ps.len().min(sd.len());
     sd[..n].fill(s);
 }

@@ -2,9 +2,9 @@
 //!
 //! The crate is built for the x86-64 baseline (SSE2: two f64 lanes). The
 //! per-particle loops (expected RSSI, likelihood products, exp, Box-Muller)
-//! are vectorised by the compiler; [`run`] runs such a loop compiled with
-//! AVX2 enabled (four f64 lanes) when the CPU has it, as built otherwise
-//! (and on every other architecture).
+//! are vectorised by the compiler; a function defined by [`avx2_dispatch!`]
+//! runs its loop compiled with AVX2 enabled (four f64 lanes) when the CPU
+//! has it, as built otherwise (and on every other architecture).
 //!
 //! The values are the same bits either way: Rust does not fuse a multiply
 //! and an add into an FMA or reorder floating-point arithmetic unless told
@@ -13,13 +13,14 @@
 //! particles one instruction handles, not any result. The tests of the
 //! callers pin that (`simd_paths_agree_to_the_bit` in each module).
 //!
-//! This is the crate's one use of `unsafe`: calling a function compiled for
-//! a CPU feature after checking at run time that the CPU has it.
+//! The macro holds the crate's one use of `unsafe`: calling a function
+//! compiled for a CPU feature after checking at run time that the CPU has
+//! it (the crate denies `unsafe` elsewhere).
 
 use std::cell::Cell;
 
-/// Whether this CPU runs the AVX2 builds of [`run`] (checked once by the
-/// standard library, then a load).
+/// Whether this CPU has AVX2 (checked once by the standard library, then
+/// a load).
 #[inline]
 pub fn has_avx2() -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -37,22 +38,15 @@ thread_local! {
     static BASELINE: Cell<bool> = const { Cell::new(false) };
 }
 
-/// Runs `f`, compiled with AVX2 enabled when the CPU has it (and this
-/// thread is not inside [`baseline`]). `f` should be the whole hot loop
-/// (it is inlined into the AVX2 function, and with it the `#[inline]`
-/// functions it calls): the dispatch costs one check per call, not per
-/// particle.
-#[inline(always)]
-pub fn run<R>(f: impl FnOnce() -> R) -> R {
-    #[cfg(target_arch = "x86_64")]
-    if has_avx2() && !BASELINE.get() {
-        return run_avx2(f);
-    }
-    f()
+/// Whether the functions of [`avx2_dispatch!`] take their AVX2 build now:
+/// the CPU has AVX2 and this thread is not inside [`baseline`].
+#[inline]
+pub fn use_avx2() -> bool {
+    has_avx2() && !BASELINE.get()
 }
 
-/// Runs `f` with every [`run`] inside it (on this thread) taking the
-/// baseline build: the reference the tests compare the dispatch with.
+/// Runs `f` with every function of [`avx2_dispatch!`] (on this thread)
+/// taking its baseline build: the reference the tests compare with.
 pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
     let before = BASELINE.replace(true);
     let r = f();
@@ -60,18 +54,38 @@ pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
     r
 }
 
-#[cfg(target_arch = "x86_64")]
-#[allow(unsafe_code)]
-#[inline(always)]
-fn run_avx2<R>(f: impl FnOnce() -> R) -> R {
-    #[target_feature(enable = "avx2")]
-    fn avx2<R>(f: impl FnOnce() -> R) -> R {
-        f()
-    }
-    // SAFETY: only called when `has_avx2()` said the CPU has AVX2, the
-    // one feature `avx2` was compiled for.
-    unsafe { avx2(f) }
+/// Defines a function whose body is compiled twice, as built and with
+/// AVX2 enabled, and runs the AVX2 build when [`use_avx2`]. The body
+/// should be a whole hot loop: it is inlined into both builds (and the
+/// `#[inline]` functions it calls with it), so the check is paid once per
+/// call, not per particle. Arguments are `name: Type` (no patterns).
+macro_rules! avx2_dispatch {
+    (
+        $(#[$attr:meta])*
+        $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block
+    ) => {
+        $(#[$attr])*
+        #[allow(unsafe_code)]
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[inline(always)]
+            fn kernel($($arg: $ty),*) $(-> $ret)? $body
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                fn avx2($($arg: $ty),*) $(-> $ret)? {
+                    kernel($($arg),*)
+                }
+                if $crate::simd::use_avx2() {
+                    // SAFETY: the CPU has AVX2 (`use_avx2`), the one
+                    // feature `avx2` was compiled for.
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            kernel($($arg),*)
+        }
+    };
 }
+pub(crate) use avx2_dispatch;
 
 #[cfg(test)]
 mod tests {
@@ -152,7 +166,7 @@ mod tests {
                 readings: 1,
             })
             .collect();
-        let fast = run(|| cloud_values(&m, &ps, &meas));
+        let fast = cloud_values(&m, &ps, &meas);
         let reference = baseline(|| cloud_values(&m, &ps, &meas));
         assert_eq!(fast.len(), reference.len());
         assert!(fast == reference, "the AVX2 build changed a value");

@@ -257,7 +257,6 @@ impl CloudLikelihood {
         self.evaluate_with(model, cfg, meas, floor, ps, Offsets::Each(offsets_db), out);
     }
 
-    /// [`CloudLikelihood::evaluate_in`] through [`crate::simd::run`].
     #[allow(clippy::too_many_arguments)]
     fn evaluate_with(
         &mut self,
@@ -269,9 +268,11 @@ impl CloudLikelihood {
         offsets: Offsets<'_>,
         out: &mut Vec<f64>,
     ) {
-        crate::simd::run(|| self.evaluate_in(model, cfg, meas, floor, ps, offsets, out));
+        evaluate_dispatched(self, model, cfg, meas, floor, ps, offsets, out);
     }
 
+    /// [`CloudLikelihood::evaluate_with`]'s work (through
+    /// [`evaluate_dispatched`]).
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn evaluate_in(
@@ -408,37 +409,55 @@ impl CloudLikelihood {
         }
         let n = self.n;
         let (mean, sd) = (&self.mean[k * n..(k + 1) * n], &self.sd[k * n..(k + 1) * n]);
-        Some(crate::simd::run(|| weighted_sums(weights, mean, sd)))
+        Some(weighted_sums(weights, mean, sd))
     }
 }
 
-/// (sum of w * mean, sum of w * sd, sum of w) over the first
-/// min(len) entries of the three slices.
-#[inline(always)]
-fn weighted_sums(weights: &[f64], mean: &[f64], sd: &[f64]) -> (f64, f64, f64) {
-    // four partial sums each (independent chains: the loop runs at the
-    // adder's throughput instead of its latency)
-    let n = mean.len().min(sd.len()).min(weights.len());
-    let (mut mu, mut s, mut ws) = ([0.0; 4], [0.0; 4], [0.0; 4]);
-    let split = n - n % 4;
-    let quads = weights[..split]
-        .chunks_exact(4)
-        .zip(mean[..split].chunks_exact(4))
-        .zip(sd[..split].chunks_exact(4));
-    for ((w, a), b) in quads {
-        for l in 0..4 {
-            mu[l] += w[l] * a[l];
-            s[l] += w[l] * b[l];
-            ws[l] += w[l];
+crate::simd::avx2_dispatch! {
+    /// [`CloudLikelihood::evaluate_in`] of `this`.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_dispatched(
+        this: &mut CloudLikelihood,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offsets: Offsets<'_>,
+        out: &mut Vec<f64>,
+    ) {
+        this.evaluate_in(model, cfg, meas, floor, ps, offsets, out)
+    }
+}
+
+crate::simd::avx2_dispatch! {
+    /// (sum of w * mean, sum of w * sd, sum of w) over the first
+    /// min(len) entries of the three slices.
+    fn weighted_sums(weights: &[f64], mean: &[f64], sd: &[f64]) -> (f64, f64, f64) {
+        // four partial sums each (independent chains: the loop runs at the
+        // adder's throughput instead of its latency)
+        let n = mean.len().min(sd.len()).min(weights.len());
+        let (mut mu, mut s, mut ws) = ([0.0; 4], [0.0; 4], [0.0; 4]);
+        let split = n - n % 4;
+        let quads = weights[..split]
+            .chunks_exact(4)
+            .zip(mean[..split].chunks_exact(4))
+            .zip(sd[..split].chunks_exact(4));
+        for ((w, a), b) in quads {
+            for l in 0..4 {
+                mu[l] += w[l] * a[l];
+                s[l] += w[l] * b[l];
+                ws[l] += w[l];
+            }
         }
+        for i in split..n {
+            mu[0] += weights[i] * mean[i];
+            s[0] += weights[i] * sd[i];
+            ws[0] += weights[i];
+        }
+        let total = |v: [f64; 4]| (v[0] + v[1]) + (v[2] + v[3]);
+        (total(mu), total(s), total(ws))
     }
-    for i in split..n {
-        mu[0] += weights[i] * mean[i];
-        s[0] += weights[i] * sd[i];
-        ws[0] += weights[i];
-    }
-    let total = |v: [f64; 4]| (v[0] + v[1]) + (v[2] + v[3]);
-    (total(mu), total(s), total(ws))
 }
 
 /// Log-likelihood at `p` of not having heard the transmitters `missing`

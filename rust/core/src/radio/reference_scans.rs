@@ -907,6 +907,34 @@ mod tests {
     }
 
     #[test]
+    fn the_level_table_is_the_per_posting_arithmetic() {
+        // RSSIs below the missing level (floored), at it, and up to 0 dBm
+        let ids: Vec<(TxKind, String)> = (0..3).map(|i| (TxKind::Wifi, format!("id{i}"))).collect();
+        let scans: Vec<ReferenceScan> = [-1500i16, -1000, -999, -655, -1, 0]
+            .iter()
+            .enumerate()
+            .map(|(i, &r10)| ReferenceScan {
+                floor: 0,
+                x_m: i as f64,
+                y_m: 0.0,
+                tx: vec![(i as u32 % 3, r10)],
+            })
+            .collect();
+        let set = ReferenceScans::new(ReferenceScanConfig::default(), ids, scans).unwrap();
+        let m = set.cfg.missing_dbm;
+        for &r10 in &set.post_r10 {
+            let l = set.levels[(i32::from(r10) - i32::from(set.levels_lo)) as usize];
+            // the query's arithmetic before the table, value by value
+            let r = super::super::radio_map::tenths(r10).max(m);
+            assert_eq!(l.r.to_bits(), r.to_bits());
+            assert_eq!(l.r_m2.to_bits(), ((r - m) * (r - m)).to_bits());
+            let want = tabled_level(&set.powed_table, r, m);
+            assert_eq!(l.powed.to_bits(), want.to_bits());
+        }
+        assert_eq!(set.levels.len(), 1501);
+    }
+
+    #[test]
     fn the_query_matches_the_definition_on_random_scans() {
         let mut seed = 12345u64;
         let mut next = move |n: u64| {

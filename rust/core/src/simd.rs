@@ -93,14 +93,15 @@ mod tests {
     use crate::Vec2;
     use crate::ble::pathloss::PathLoss;
     use crate::fast_math::exp_many;
-    use crate::radio::likelihood::CloudLikelihood;
+    use crate::radio::likelihood::{CloudLikelihood, profiled_many};
     use crate::radio::model::{PathLossModel, PathLossParams, RadioModel};
     use crate::radio::{LikelihoodConfig, Measurement};
     use crate::site::testkit;
 
     /// What the dispatched loops compute for a cloud: the expected RSSI of
     /// every transmitter, the cloud's log-likelihood (one offset and one
-    /// per particle), the residual sums and exp of the log-likelihoods.
+    /// per particle), the residual sums, the profiled surface and exp of
+    /// the log-likelihoods.
     fn cloud_values(m: &PathLossModel, ps: &[Vec2], meas: &[Measurement]) -> Vec<u64> {
         let cfg = LikelihoodConfig::default();
         let mut v = Vec::new();
@@ -123,6 +124,9 @@ mod tests {
             let (a, b, c) = cloud.weighted_expected(k, &w).unwrap();
             v.extend([a.to_bits(), b.to_bits(), c.to_bits()]);
         }
+        let (mut o, mut s, mut l) = (Vec::new(), Vec::new(), Vec::new());
+        profiled_many(m, &cfg, meas, 0, ps, -2.0, 4.0, &mut o, &mut s, &mut l);
+        v.extend(o.iter().chain(&s).chain(&l).map(|x| x.to_bits()));
         let xs: Vec<f64> = out.iter().map(|l| 0.3 * l).chain([-800.0, 710.0]).collect();
         let mut e = vec![0.0; xs.len()];
         exp_many(&xs, &mut e);

@@ -523,15 +523,51 @@ pub fn profiled(
     )
 }
 
-/// [`profiled`] at every point of `ps` into `offsets` and `lls` (cleared
-/// first), within 1e-6 of it (unit test): each transmitter's expected
-/// RSSI computed once per point through [`RadioModel::expected_many`] (the
-/// likelihood surface of a start or a re-seeding over thousands of
-/// cells), the offsets by the same sums in the same order, the
-/// log-likelihood as [`CloudLikelihood::evaluate`] forms it (products of
-/// [`PRODUCT_TERMS`] factors, one [`fast_ln`] each).
+crate::simd::avx2_dispatch! {
+    /// [`profiled`] at every point of `ps` into `offsets` and `lls` (cleared
+    /// first), within 1e-6 of it (unit test): each transmitter's expected
+    /// RSSI computed once per point through [`RadioModel::expected_many`] (the
+    /// likelihood surface of a start or a re-seeding over thousands of
+    /// cells), the offsets by the same sums in the same order, the
+    /// log-likelihood as [`CloudLikelihood::evaluate`] forms it (products of
+    /// [`PRODUCT_TERMS`] factors, one [`fast_ln`] each).
+    #[allow(clippy::too_many_arguments)]
+    pub fn profiled_many(
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        prior_db: f64,
+        prior_sd_db: f64,
+        offsets: &mut Vec<f64>,
+        sds: &mut Vec<f64>,
+        lls: &mut Vec<f64>,
+    ) {
+        profiled_many_in(model, cfg, meas, floor, ps, prior_db, prior_sd_db, offsets, sds, lls)
+    }
+}
+
+/// `lls -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`, the
+/// products reset to 1.
+#[inline(always)]
+fn drain_profiled(
+    lls: &mut [f64],
+    prod: &mut [f64],
+    sd_prod: &mut [f64],
+    half_nu1: f64,
+    ln: fn(f64) -> f64,
+) {
+    for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
+        *l -= half_nu1 * ln(*q) + ln(*qs);
+        (*q, *qs) = (1.0, 1.0);
+    }
+}
+
+/// [`profiled_many`]'s work.
 #[allow(clippy::too_many_arguments)]
-pub fn profiled_many(
+#[inline(always)]
+fn profiled_many_in(
     model: &dyn RadioModel,
     cfg: &LikelihoodConfig,
     meas: &[Measurement],
@@ -577,9 +613,14 @@ pub fn profiled_many(
     let (mut prod, mut sd_prod) = (vec![1.0; n], vec![1.0; n]);
     let mut terms = 0;
     let flush = |lls: &mut [f64], prod: &mut [f64], sd_prod: &mut [f64]| {
-        for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
-            *l -= half_nu1 * fast_ln(*q) + fast_ln(*qs);
-            (*q, *qs) = (1.0, 1.0);
+        let normal = prod.iter().chain(sd_prod.iter()).fold(true, |ok, q| {
+            ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
+        });
+        // fast_ln's values; the branch-free logarithm where it may (vectorises)
+        if normal {
+            drain_profiled(lls, prod, sd_prod, half_nu1, ln_normal);
+        } else {
+            drain_profiled(lls, prod, sd_prod, half_nu1, fast_ln);
         }
     };
     for (k, m) in meas.iter().enumerate() {

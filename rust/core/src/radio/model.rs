@@ -325,7 +325,7 @@ pub(crate) fn pathloss_many(
 crate::simd::avx2_dispatch! {
     /// `mean[i]` = `r0` - `k` ln clamp(|ps[i] - tx|^2 + `dz2`, `lo`, MAX):
     /// [`pathloss_many`]'s loop.
-    fn pathloss_loop(ps: &[Vec2], tx: Vec2, dz2: f64, lo: f64, r0: f64, k: f64, mean: &mut [f64]) {
+    pub(crate) fn pathloss_loop(ps: &[Vec2], tx: Vec2, dz2: f64, lo: f64, r0: f64, k: f64, mean: &mut [f64]) {
         for (p, m) in ps.iter().zip(mean.iter_mut()) {
             let (dx, dy) = (p.x - tx.x, p.y - tx.y);
             let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);

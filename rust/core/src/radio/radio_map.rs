@@ -215,9 +215,10 @@ impl<'a> GridSampler<'a> {
         let mut at = Vec::with_capacity(n);
         self.locate(&ps[..n], &mut at);
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let mut off = Vec::new();
         for (i, a) in at.iter().enumerate() {
             if !a.inside {
-                (mean[i], sd[i]) = fast.at(ps[i]);
+                off.push(i);
                 continue;
             }
             // inside: i0 < nx and j0 < ny, so no index saturates
@@ -240,6 +241,7 @@ impl<'a> GridSampler<'a> {
             mean[i] = lerp(lerp(c[0], c[1], a.tx), lerp(c[2], c[3], a.tx), a.ty);
             sd[i] = lerp(lerp(c[4], c[5], a.tx), lerp(c[6], c[7], a.tx), a.ty);
         }
+        fast.at_some(ps, &off, mean, sd);
     }
 
     /// The cell coordinates of every point of `ps` appended to `at` (as
@@ -521,6 +523,24 @@ impl FastFallback {
             dz2: t.dz_m * t.dz_m,
             lo2: (fb.min_range_m * fb.min_range_m).max(f64::MIN_POSITIVE),
             pos: t.pos,
+        }
+    }
+
+    /// [`FastFallback::at`] of `ps[i]` into `mean[i]`, `sd[i]` for every
+    /// i of `which`: the path-loss curve over the gathered points in one
+    /// loop (`model::pathloss_loop`, the same arithmetic: vectorises).
+    fn at_some(&self, ps: &[Vec2], which: &[usize], mean: &mut [f64], sd: &mut [f64]) {
+        if !self.pathloss {
+            for &i in which {
+                (mean[i], sd[i]) = self.here;
+            }
+            return;
+        }
+        let pts: Vec<Vec2> = which.iter().map(|&i| ps[i]).collect();
+        let mut m = vec![0.0; pts.len()];
+        super::model::pathloss_loop(&pts, self.pos, self.dz2, self.lo2, self.r0, self.k, &mut m);
+        for (&i, v) in which.iter().zip(&m) {
+            (mean[i], sd[i]) = (*v, self.here.1);
         }
     }
 

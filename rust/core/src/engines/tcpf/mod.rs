@@ -156,20 +156,24 @@ fn anchor_mix(anchors: &[Anchor], floor: i32, p: Vec2, sigma_m: f64) -> f64 {
         .sum()
 }
 
-/// [`anchor_mix`] at every point of `ps`, appended to `out` (the anchors
-/// of `floor` picked once).
+/// [`anchor_mix`] at every point of `ps`, appended to `out`: anchor by
+/// anchor over the cloud, the exponentials by [`exp_many`] (vectorises;
+/// [`fast_exp`]'s values, added per point in the same order, so the same
+/// sums).
 fn anchor_mix_many(anchors: &[Anchor], floor: i32, ps: &[Vec2], sigma_m: f64, out: &mut Vec<f64>) {
     let k = -0.5 / (sigma_m * sigma_m);
-    let here: Vec<(Vec2, f64)> = anchors
-        .iter()
-        .filter(|a| a.floor == floor)
-        .map(|a| (a.pos, a.w))
-        .collect();
-    out.extend(ps.iter().map(|p| {
-        here.iter()
-            .map(|(q, w)| w * fast_exp((p - q).norm_squared() * k))
-            .sum::<f64>()
-    }));
+    let start = out.len();
+    // -0.0: where `Iterator::sum` of f64 starts (no anchor: the same -0.0)
+    out.resize(start + ps.len(), -0.0);
+    let (mut xs, mut e) = (Vec::with_capacity(ps.len()), vec![0.0; ps.len()]);
+    for a in anchors.iter().filter(|a| a.floor == floor) {
+        xs.clear();
+        xs.extend(ps.iter().map(|p| (p - a.pos).norm_squared() * k));
+        exp_many(&xs, &mut e);
+        for (o, e) in out[start..].iter_mut().zip(&e) {
+            *o += a.w * e;
+        }
+    }
 }
 
 /// The tightly coupled radio-likelihood particle filter.

@@ -391,3 +391,29 @@ const BEHIND_THE_WALL_EAST: InitialPosition = InitialPosition {
     floor: 0,
     heading_rad: None,
 };
+
+#[test]
+fn the_batched_anchor_mixture_is_the_per_point_one() {
+    // anchors on two floors (the other floor's left out), points near and
+    // far (exp underflows), to the bit
+    let anchors: Vec<Anchor> = (0..9)
+        .map(|k| Anchor {
+            floor: i32::from(k % 4 == 3),
+            pos: Vec2::new(3.0 * f64::from(k), 20.0 - 2.5 * f64::from(k)),
+            w: 0.05 + 0.02 * f64::from(k),
+            dist_db: 0.0,
+        })
+        .collect();
+    let ps: Vec<Vec2> = (0..777)
+        .map(|i| Vec2::new(f64::from(i % 37) * 0.9 - 3.0, f64::from(i / 37) * 1.3))
+        .chain([Vec2::new(5e3, -7e3)])
+        .collect();
+    for (floor, sigma_m) in [(0, 8.0), (1, 4.0), (2, 8.0)] {
+        let mut out = vec![7.0];
+        anchor_mix_many(&anchors, floor, &ps, sigma_m, &mut out);
+        assert_eq!(out.len(), ps.len() + 1);
+        for (p, m) in ps.iter().zip(&out[1..]) {
+            assert_eq!(m.to_bits(), anchor_mix(&anchors, floor, *p, sigma_m).to_bits());
+        }
+    }
+}

@@ -413,7 +413,10 @@ fn the_batched_anchor_mixture_is_the_per_point_one() {
         anchor_mix_many(&anchors, floor, &ps, sigma_m, &mut out);
         assert_eq!(out.len(), ps.len() + 1);
         for (p, m) in ps.iter().zip(&out[1..]) {
-            assert_eq!(m.to_bits(), anchor_mix(&anchors, floor, *p, sigma_m).to_bits());
+            assert_eq!(
+                m.to_bits(),
+                anchor_mix(&anchors, floor, *p, sigma_m).to_bits()
+            );
         }
     }
 }

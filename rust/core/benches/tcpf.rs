@@ -25,7 +25,7 @@ use fpbp_core::ble::pathloss::PathLoss;
 use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task};
 use fpbp_core::engines::tcpf::TcpfEngine;
 use fpbp_core::events::BleObservation;
-use fpbp_core::fast_math::fast_exp;
+use fpbp_core::fast_math::exp_many;
 use fpbp_core::fusion::ParticleFilter;
 use fpbp_core::radio::likelihood::{CloudLikelihood, log_likelihood};
 use fpbp_core::radio::model::{PathLossModel, PathLossParams, Transmitter, TxKind};
@@ -156,16 +156,18 @@ fn radio_map(site: &Site, n: usize) -> RadioMap {
 /// (mean, sd, weight) sums.
 fn weigh(pf: &mut ParticleFilter, log_l: &mut [f64], m: usize, alpha: f64) -> f64 {
     let m = m.max(1) as f64;
-    let mean_l = log_l.iter().map(|l| fast_exp(l / m)).sum::<f64>();
+    // the exponentials in one pass each, as the engine takes them
+    let mut xs: Vec<f64> = log_l.iter().map(|l| l / m).collect();
+    let mut ex = vec![0.0; xs.len()];
+    exp_many(&xs, &mut ex);
+    let mean_l = ex.iter().sum::<f64>();
     let lmax = log_l
         .iter()
         .fold(f64::NEG_INFINITY, |a, u| a.max(alpha * u));
-    let lse = lmax
-        + log_l
-            .iter()
-            .map(|u| fast_exp(alpha * u - lmax))
-            .sum::<f64>()
-            .ln();
+    xs.clear();
+    xs.extend(log_l.iter().map(|u| alpha * u - lmax));
+    exp_many(&xs, &mut ex);
+    let lse = lmax + ex.iter().sum::<f64>().ln();
     log_l.iter_mut().for_each(|u| *u *= alpha);
     pf.weight_log(log_l);
     mean_l + lse

@@ -61,12 +61,19 @@ pub fn fast_exp(x: f64) -> f64 {
 /// `out[i]` = e^`xs[i]` (same length), [`fast_exp`]'s values: one
 /// branch-free pass, then `f64::exp` for the rare inputs out of range.
 pub fn exp_many(xs: &[f64], out: &mut [f64]) {
-    for (o, &x) in out.iter_mut().zip(xs) {
-        *o = exp_in_range(x.clamp(EXP_MIN, EXP_MAX));
-    }
+    exp_clamped_many(xs, out);
     for (o, &x) in out.iter_mut().zip(xs) {
         if !(EXP_MIN..=EXP_MAX).contains(&x) {
             *o = x.exp();
+        }
+    }
+}
+
+crate::simd::avx2_dispatch! {
+    /// `out[i]` = [`exp_in_range`] of `xs[i]` clamped to the range.
+    fn exp_clamped_many(xs: &[f64], out: &mut [f64]) {
+        for (o, &x) in out.iter_mut().zip(xs) {
+            *o = exp_in_range(x.clamp(EXP_MIN, EXP_MAX));
         }
     }
 }

@@ -4,7 +4,7 @@
 //! (Sec. IV-B), particle-filter fusion and post-position correction
 //! (Sec. IV-C/D), and the engines built from them. The core does no file,
 //! network or platform I/O: callers hand it bytes and events.
-#![forbid(unsafe_code)]
+#![deny(unsafe_code)]
 
 pub mod ble;
 pub mod bounds;
@@ -22,6 +22,7 @@ pub mod kalman;
 pub mod map;
 pub mod pdr;
 pub mod radio;
+pub mod simd;
 pub mod site;
 pub mod wifi;
 

@@ -15,6 +15,7 @@ pub mod config;
 pub mod particle_filter;
 pub mod ppc;
 pub mod recovery;
+pub mod uniforms;
 pub mod weighted_quantile;
 
 pub use config::{FusionConfig, PpcConfig, Resampling};

@@ -17,6 +17,7 @@ use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 
 use super::config::{FusionConfig, Resampling};
+use super::uniforms::fill_interleaved;
 use crate::Vec2;
 use crate::radio::fast_ln::ln_normal;
 
@@ -78,21 +79,19 @@ fn box_muller(u1: f64, u2: f64) -> f64 {
 /// order as `n` calls of [`std_normal`]: the uniforms first (the serial
 /// chain through the RNG state, into `out` and `u2`), then Box-Muller
 /// over the arrays (independent per draw: it vectorises).
-fn std_normals(rng: &mut Pcg64, out: &mut [f64], u2: &mut Vec<f64>) {
-    u2.resize(out.len(), 0.0);
-    for (a, b) in out.iter_mut().zip(u2.iter_mut()) {
-        *a = rng.random::<f64>();
-        *b = rng.random::<f64>();
-    }
-    for (a, b) in out.iter_mut().zip(u2.iter()) {
-        *a = box_muller(*a, *b);
-    }
+fn std_normals(rng: &mut Pcg64, out: &mut [f64], u2: &mut Vec<f64>, raw: &mut Vec<f64>) {
+    let n = out.len();
+    u2.resize(n, 0.0);
+    fill_interleaved(rng, raw, n, &mut [&mut *out, &mut u2[..]]);
+    box_muller_in_place(out, u2);
 }
 
-/// `u1[i]` := [`box_muller`]`(u1[i], u2[i])` for every i.
-fn box_muller_in_place(u1: &mut [f64], u2: &[f64]) {
-    for (a, b) in u1.iter_mut().zip(u2) {
-        *a = box_muller(*a, *b);
+crate::simd::avx2_dispatch! {
+    /// `u1[i]` := [`box_muller`]`(u1[i], u2[i])` for every i.
+    fn box_muller_in_place(u1: &mut [f64], u2: &[f64]) {
+        for (a, b) in u1.iter_mut().zip(u2) {
+            *a = box_muller(*a, *b);
+        }
     }
 }
 
@@ -160,6 +159,9 @@ pub struct ParticleFilter {
     /// Uniform draws of one predict with particle biases or extra noise
     /// (then their normals), reused.
     draw_buf: Vec<f64>,
+    /// The same draws as they come from the RNG, particle by particle
+    /// ([`fill_interleaved`]), reused.
+    uniform_buf: Vec<f64>,
     rng: Pcg64,
     count: usize,
     step_noise_m: f64,
@@ -204,6 +206,7 @@ impl ParticleFilter {
             exp_out: Vec::new(),
             draw_th: Vec::with_capacity(count),
             draw_buf: Vec::new(),
+            uniform_buf: Vec::new(),
             rng: Pcg64::seed_from_u64(seed),
             count,
             step_noise_m: config.step_noise_m,
@@ -302,13 +305,8 @@ impl ParticleFilter {
             let (a1, rest) = d.split_at_mut(m);
             let (a2, rest) = rest.split_at_mut(m);
             let (b1, b2) = rest.split_at_mut(m);
-            let rng = &mut self.rng;
-            for (((a1, a2), b1), b2) in a1.iter_mut().zip(&mut *a2).zip(&mut *b1).zip(&mut *b2) {
-                *a1 = rng.random::<f64>();
-                *a2 = rng.random::<f64>();
-                *b1 = rng.random::<f64>();
-                *b2 = rng.random::<f64>();
-            }
+            let outs = &mut [&mut *a1, &mut *a2, &mut *b1, &mut *b2];
+            fill_interleaved(&mut self.rng, &mut self.uniform_buf, m, outs);
             box_muller_in_place(a1, a2);
             box_muller_in_place(b1, b2);
             for ((p, a), b) in self.particles.iter_mut().zip(&*a1).zip(&*b1) {
@@ -341,12 +339,8 @@ impl ParticleFilter {
             let m = self.particles.len();
             self.draw_s.resize(m, 0.0);
             self.draw_th.resize(m, 0.0);
-            // (disjoint borrows: the RNG state may stay in registers)
-            let rng = &mut self.rng;
-            for (u_s, u_th) in self.draw_s.iter_mut().zip(&mut self.draw_th) {
-                *u_s = rng.random::<f64>();
-                *u_th = rng.random::<f64>();
-            }
+            let outs = &mut [&mut self.draw_s[..], &mut self.draw_th[..]];
+            fill_interleaved(&mut self.rng, &mut self.uniform_buf, m, outs);
             for ((p, &u_s), &u_th) in self
                 .particles
                 .iter_mut()
@@ -393,18 +387,12 @@ impl ParticleFilter {
         let (s1, rest) = rest.split_at_mut(m);
         let (s2, rest) = rest.split_at_mut(m);
         let (us, uth) = rest.split_at_mut(m);
-        let rng = &mut self.rng;
-        for i in 0..m {
-            if off_on {
-                o1[i] = rng.random::<f64>();
-                o2[i] = rng.random::<f64>();
-            }
-            if scale_on {
-                s1[i] = rng.random::<f64>();
-                s2[i] = rng.random::<f64>();
-            }
-            us[i] = rng.random::<f64>();
-            uth[i] = rng.random::<f64>();
+        let (rng, buf) = (&mut self.rng, &mut self.uniform_buf);
+        match (off_on, scale_on) {
+            (true, true) => fill_interleaved(rng, buf, m, &mut [o1, o2, s1, s2, us, uth]),
+            (true, false) => fill_interleaved(rng, buf, m, &mut [o1, o2, us, uth]),
+            (false, true) => fill_interleaved(rng, buf, m, &mut [s1, s2, us, uth]),
+            (false, false) => fill_interleaved(rng, buf, m, &mut [us, uth]),
         }
         if off_on {
             box_muller_in_place(o1, o2);
@@ -921,7 +909,12 @@ impl ParticleFilter {
     /// `out.len()` N(0, 1) draws from the filter's seeded RNG, the same
     /// values as that many calls of [`ParticleFilter::draw_normal`].
     pub fn draw_normals(&mut self, out: &mut [f64]) {
-        std_normals(&mut self.rng, out, &mut self.draw_buf);
+        std_normals(
+            &mut self.rng,
+            out,
+            &mut self.draw_buf,
+            &mut self.uniform_buf,
+        );
     }
 }
 

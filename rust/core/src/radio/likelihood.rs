@@ -268,6 +268,23 @@ impl CloudLikelihood {
         offsets: Offsets<'_>,
         out: &mut Vec<f64>,
     ) {
+        evaluate_dispatched(self, model, cfg, meas, floor, ps, offsets, out);
+    }
+
+    /// [`CloudLikelihood::evaluate_with`]'s work (through
+    /// [`evaluate_dispatched`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn evaluate_in(
+        &mut self,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offsets: Offsets<'_>,
+        out: &mut Vec<f64>,
+    ) {
         let n = ps.len();
         self.n = n;
         self.known.clear();
@@ -349,6 +366,7 @@ impl CloudLikelihood {
     }
 
     /// Moves the products into `out` and resets them.
+    #[inline(always)]
     fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool) {
         let normal = |v: &[f64]| {
             v.iter().fold(true, |ok, q| {
@@ -391,9 +409,34 @@ impl CloudLikelihood {
         }
         let n = self.n;
         let (mean, sd) = (&self.mean[k * n..(k + 1) * n], &self.sd[k * n..(k + 1) * n]);
-        // four partial sums each (independent chains: the loop runs at
-        // the adder's throughput instead of its latency)
-        let n = n.min(weights.len());
+        Some(weighted_sums(weights, mean, sd))
+    }
+}
+
+crate::simd::avx2_dispatch! {
+    /// [`CloudLikelihood::evaluate_in`] of `this`.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate_dispatched(
+        this: &mut CloudLikelihood,
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        offsets: Offsets<'_>,
+        out: &mut Vec<f64>,
+    ) {
+        this.evaluate_in(model, cfg, meas, floor, ps, offsets, out)
+    }
+}
+
+crate::simd::avx2_dispatch! {
+    /// (sum of w * mean, sum of w * sd, sum of w) over the first
+    /// min(len) entries of the three slices.
+    fn weighted_sums(weights: &[f64], mean: &[f64], sd: &[f64]) -> (f64, f64, f64) {
+        // four partial sums each (independent chains: the loop runs at the
+        // adder's throughput instead of its latency)
+        let n = mean.len().min(sd.len()).min(weights.len());
         let (mut mu, mut s, mut ws) = ([0.0; 4], [0.0; 4], [0.0; 4]);
         let split = n - n % 4;
         let quads = weights[..split]
@@ -413,7 +456,7 @@ impl CloudLikelihood {
             ws[0] += weights[i];
         }
         let total = |v: [f64; 4]| (v[0] + v[1]) + (v[2] + v[3]);
-        Some((total(mu), total(s), total(ws)))
+        (total(mu), total(s), total(ws))
     }
 }
 
@@ -480,15 +523,51 @@ pub fn profiled(
     )
 }
 
-/// [`profiled`] at every point of `ps` into `offsets` and `lls` (cleared
-/// first), within 1e-6 of it (unit test): each transmitter's expected
-/// RSSI computed once per point through [`RadioModel::expected_many`] (the
-/// likelihood surface of a start or a re-seeding over thousands of
-/// cells), the offsets by the same sums in the same order, the
-/// log-likelihood as [`CloudLikelihood::evaluate`] forms it (products of
-/// [`PRODUCT_TERMS`] factors, one [`fast_ln`] each).
+crate::simd::avx2_dispatch! {
+    /// [`profiled`] at every point of `ps` into `offsets` and `lls` (cleared
+    /// first), within 1e-6 of it (unit test): each transmitter's expected
+    /// RSSI computed once per point through [`RadioModel::expected_many`] (the
+    /// likelihood surface of a start or a re-seeding over thousands of
+    /// cells), the offsets by the same sums in the same order, the
+    /// log-likelihood as [`CloudLikelihood::evaluate`] forms it (products of
+    /// [`PRODUCT_TERMS`] factors, one [`fast_ln`] each).
+    #[allow(clippy::too_many_arguments)]
+    pub fn profiled_many(
+        model: &dyn RadioModel,
+        cfg: &LikelihoodConfig,
+        meas: &[Measurement],
+        floor: i32,
+        ps: &[Vec2],
+        prior_db: f64,
+        prior_sd_db: f64,
+        offsets: &mut Vec<f64>,
+        sds: &mut Vec<f64>,
+        lls: &mut Vec<f64>,
+    ) {
+        profiled_many_in(model, cfg, meas, floor, ps, prior_db, prior_sd_db, offsets, sds, lls)
+    }
+}
+
+/// `lls -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`, the
+/// products reset to 1.
+#[inline(always)]
+fn drain_profiled(
+    lls: &mut [f64],
+    prod: &mut [f64],
+    sd_prod: &mut [f64],
+    half_nu1: f64,
+    ln: fn(f64) -> f64,
+) {
+    for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
+        *l -= half_nu1 * ln(*q) + ln(*qs);
+        (*q, *qs) = (1.0, 1.0);
+    }
+}
+
+/// [`profiled_many`]'s work.
 #[allow(clippy::too_many_arguments)]
-pub fn profiled_many(
+#[inline(always)]
+fn profiled_many_in(
     model: &dyn RadioModel,
     cfg: &LikelihoodConfig,
     meas: &[Measurement],
@@ -534,9 +613,14 @@ pub fn profiled_many(
     let (mut prod, mut sd_prod) = (vec![1.0; n], vec![1.0; n]);
     let mut terms = 0;
     let flush = |lls: &mut [f64], prod: &mut [f64], sd_prod: &mut [f64]| {
-        for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
-            *l -= half_nu1 * fast_ln(*q) + fast_ln(*qs);
-            (*q, *qs) = (1.0, 1.0);
+        let normal = prod.iter().chain(sd_prod.iter()).fold(true, |ok, q| {
+            ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
+        });
+        // fast_ln's values; the branch-free logarithm where it may (vectorises)
+        if normal {
+            drain_profiled(lls, prod, sd_prod, half_nu1, ln_normal);
+        } else {
+            drain_profiled(lls, prod, sd_prod, half_nu1, fast_ln);
         }
     };
     for (k, m) in meas.iter().enumerate() {

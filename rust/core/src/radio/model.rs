@@ -317,13 +317,21 @@ pub(crate) fn pathloss_many(
     // NaN positions count at the floored range as in `range_m`, infinite
     // ones at the largest finite range
     let lo = min2.max(f64::MIN_POSITIVE);
-    for (p, m) in ps.iter().zip(mean.iter_mut()) {
-        let (dx, dy) = (p.x - t.pos.x, p.y - t.pos.y);
-        let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);
-        *m = r0 - k * ln_normal(d2);
-    }
+    pathloss_loop(ps, t.pos, dz2, lo, r0, k, mean);
     let n = ps.len().min(sd.len());
     sd[..n].fill(s);
+}
+
+crate::simd::avx2_dispatch! {
+    /// `mean[i]` = `r0` - `k` ln clamp(|ps[i] - tx|^2 + `dz2`, `lo`, MAX):
+    /// [`pathloss_many`]'s loop.
+    pub(crate) fn pathloss_loop(ps: &[Vec2], tx: Vec2, dz2: f64, lo: f64, r0: f64, k: f64, mean: &mut [f64]) {
+        for (p, m) in ps.iter().zip(mean.iter_mut()) {
+            let (dx, dy) = (p.x - tx.x, p.y - tx.y);
+            let d2 = (dx * dx + dy * dy + dz2).max(lo).min(f64::MAX);
+            *m = r0 - k * ln_normal(d2);
+        }
+    }
 }
 
 #[cfg(test)]

@@ -148,8 +148,9 @@ impl<'a> GridSampler<'a> {
         }
     }
 
-    /// [`Grid::sample`] at `p`, bit for bit (unit test).
-    #[inline(always)]
+    /// [`Grid::sample`] at `p`, bit for bit (unit test): the reference
+    /// of [`GridSampler::sample_many`].
+    #[cfg(test)]
     fn sample(&self, p: Vec2) -> Option<(f64, f64)> {
         let g = self.g;
         let (u, v) = if self.inv_cell != 0.0 {
@@ -200,6 +201,108 @@ impl<'a> GridSampler<'a> {
         );
         Some((mean, sd))
     }
+
+    /// `sample(ps[i])`, else `fast.at(ps[i])`, into `mean[i]`, `sd[i]`
+    /// for every i, bit for bit (unit test): the same arithmetic in two
+    /// passes, the cell coordinates and weights of every point first
+    /// (vectorises), then per point the corners and the blend, the
+    /// corners' tenths read without a branch when all eight are in
+    /// [`TENTHS`] (the rare point off the grid or next to a hole settled
+    /// as `sample` does).
+    fn sample_many(&self, ps: &[Vec2], fast: &FastFallback, mean: &mut [f64], sd: &mut [f64]) {
+        let g = self.g;
+        let n = ps.len().min(mean.len()).min(sd.len());
+        let mut at = Vec::with_capacity(n);
+        self.locate(&ps[..n], &mut at);
+        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
+        let mut off = Vec::new();
+        for (i, a) in at.iter().enumerate() {
+            if !a.inside {
+                off.push(i);
+                continue;
+            }
+            // inside: i0 < nx and j0 < ny, so no index saturates
+            let (i0, j0) = (a.i0 as usize, a.j0 as usize);
+            let (i1, j1) = ((i0 + 1).min(g.nx - 1), (j0 + 1).min(g.ny - 1));
+            let (r0, r1) = (j0 * g.nx, j1 * g.nx);
+            let ks = [r0 + i0, r0 + i1, r1 + i0, r1 + i1];
+            let mut x = [NO_VALUE; 8];
+            for (q, k) in ks.iter().enumerate() {
+                x[q] = g.mean_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
+                x[4 + q] = g.sd_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
+            }
+            if x.contains(&NO_VALUE) {
+                (mean[i], sd[i]) = g
+                    .at(a.u as usize, a.v as usize)
+                    .unwrap_or_else(|| fast.at(ps[i]));
+                continue;
+            }
+            let c = tenths_8(x);
+            mean[i] = lerp(lerp(c[0], c[1], a.tx), lerp(c[2], c[3], a.tx), a.ty);
+            sd[i] = lerp(lerp(c[4], c[5], a.tx), lerp(c[6], c[7], a.tx), a.ty);
+        }
+        fast.at_some(ps, &off, mean, sd);
+    }
+
+    /// The cell coordinates of every point of `ps` appended to `at` (as
+    /// [`GridSampler::sample`] computes them).
+    fn locate(&self, ps: &[Vec2], at: &mut Vec<CellAt>) {
+        let g = self.g;
+        let (nx, ny) = (self.nx, self.ny);
+        let one = |u: f64, v: f64| {
+            let inside = u >= 0.0 && v >= 0.0 && u < nx && v < ny;
+            let (fu, fv) = (u - 0.5, v - 0.5);
+            let (i0, j0) = (fu.max(0.0) as i64, fv.max(0.0) as i64);
+            CellAt {
+                u,
+                v,
+                tx: (fu - i0 as f64).max(0.0),
+                ty: (fv - j0 as f64).max(0.0),
+                i0,
+                j0,
+                inside,
+            }
+        };
+        if self.inv_cell != 0.0 {
+            let inv = self.inv_cell;
+            at.extend(
+                ps.iter()
+                    .map(|p| one((p.x - g.x0_m) * inv, (p.y - g.y0_m) * inv)),
+            );
+        } else {
+            let c = g.cell_m;
+            at.extend(
+                ps.iter()
+                    .map(|p| one((p.x - g.x0_m) / c, (p.y - g.y0_m) / c)),
+            );
+        }
+    }
+}
+
+/// [`tenths`] of eight values: from [`TENTHS`] without a branch per value
+/// when all are in it, else one by one.
+#[inline(always)]
+fn tenths_8(x: [i16; 8]) -> [f64; 8] {
+    let idx = x.map(|v| (i32::from(v) - TENTHS_LO) as u32);
+    if idx.iter().all(|i| (*i as usize) < TENTHS.len()) {
+        idx.map(|i| TENTHS[i as usize % TENTHS.len()])
+    } else {
+        x.map(tenths)
+    }
+}
+
+/// Where a point falls on a grid ([`GridSampler::locate`]): its cell
+/// coordinates (u, v), the blend weights, the lower corner, whether it
+/// is on the grid.
+#[derive(Debug, Clone, Copy)]
+struct CellAt {
+    u: f64,
+    v: f64,
+    tx: f64,
+    ty: f64,
+    i0: i64,
+    j0: i64,
+    inside: bool,
 }
 
 impl Grid {
@@ -423,6 +526,24 @@ impl FastFallback {
         }
     }
 
+    /// [`FastFallback::at`] of `ps[i]` into `mean[i]`, `sd[i]` for every
+    /// i of `which`: the path-loss curve over the gathered points in one
+    /// loop (`model::pathloss_loop`, the same arithmetic: vectorises).
+    fn at_some(&self, ps: &[Vec2], which: &[usize], mean: &mut [f64], sd: &mut [f64]) {
+        if !self.pathloss {
+            for &i in which {
+                (mean[i], sd[i]) = self.here;
+            }
+            return;
+        }
+        let pts: Vec<Vec2> = which.iter().map(|&i| ps[i]).collect();
+        let mut m = vec![0.0; pts.len()];
+        super::model::pathloss_loop(&pts, self.pos, self.dz2, self.lo2, self.r0, self.k, &mut m);
+        for (&i, v) in which.iter().zip(&m) {
+            (mean[i], sd[i]) = (*v, self.here.1);
+        }
+    }
+
     #[inline]
     fn at(&self, p: Vec2) -> (f64, f64) {
         if !self.pathloss {
@@ -481,12 +602,7 @@ impl RadioModel for RadioMap {
         let fast = FastFallback::new(t, e.has_pathloss, fb, apart);
         let out = ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut());
         match grid {
-            Some(g) => {
-                let gs = GridSampler::new(g);
-                for ((p, m), s) in out {
-                    (*m, *s) = gs.sample(*p).unwrap_or_else(|| fast.at(*p));
-                }
-            }
+            Some(g) => GridSampler::new(g).sample_many(ps, &fast, mean, sd),
             None => {
                 for ((p, m), s) in out {
                     (*m, *s) = fast.at(*p);

@@ -423,6 +423,7 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
         let w = nx as f64 * cell_m;
         let h = ny as f64 * cell_m;
         let mut checked = 0;
+        let mut ps = Vec::new();
         for i in -20..=420 {
             for j in -20..=300 {
                 let p = Vec2::new(
@@ -436,8 +437,33 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
                     "{p:?}"
                 );
                 checked += usize::from(a.is_some());
+                ps.push(p);
             }
         }
         assert!(checked > 50_000, "{checked}");
+        // the three passes: the per-point sample, else the fallback
+        let t = Transmitter {
+            id: "t".into(),
+            kind: TxKind::Wifi,
+            floor: 0,
+            pos: Vec2::new(x0_m + 3.0, 9.0),
+            dz_m: 1.5,
+            model: crate::ble::pathloss::PathLoss {
+                rssi_1m_dbm: -45.0,
+                exponent: 2.6,
+            },
+        };
+        for has_pathloss in [true, false] {
+            let fast = FastFallback::new(&t, has_pathloss, &FallbackParams::default(), 0);
+            let (mut mean, mut sd) = (vec![0.0; ps.len()], vec![0.0; ps.len()]);
+            gs.sample_many(&ps, &fast, &mut mean, &mut sd);
+            for (i, p) in ps.iter().enumerate() {
+                let (m, s) = gs.sample(*p).unwrap_or_else(|| fast.at(*p));
+                assert_eq!(
+                    (m.to_bits(), s.to_bits()),
+                    (mean[i].to_bits(), sd[i].to_bits())
+                );
+            }
+        }
     }
 }

@@ -237,6 +237,42 @@ pub struct ReferenceScans {
     /// [`powed_level`] of every RSSI from `missing_dbm` to 0 dBm in
     /// 0.1 dB (the scans' resolution).
     powed_table: Vec<f64>,
+    /// What the query needs of a posting's RSSI, by `r10 - levels_lo`
+    /// for every `r10` the postings hold ([`PostingLevel`]).
+    levels: Vec<PostingLevel>,
+    levels_lo: i16,
+}
+
+/// A scan's RSSI as the query reads it, computed once per value (the
+/// postings hold few distinct ones): r = r10 / 10 floored at
+/// `missing_dbm` (m), (r - m)^2, and its powed level from the table
+/// (the query's own arithmetic on them, so the same sums).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+struct PostingLevel {
+    r: f64,
+    r_m2: f64,
+    powed: f64,
+}
+
+impl PostingLevel {
+    fn of(r10: i16, m: f64, powed_table: &[f64]) -> Self {
+        let r = super::radio_map::tenths(r10).max(m);
+        PostingLevel {
+            r,
+            r_m2: (r - m) * (r - m),
+            powed: tabled_level(powed_table, r, m),
+        }
+    }
+}
+
+/// A query's running sums for one scan: the shared transmitters'
+/// correction of the RMS sum, their summed min powed level, their count
+/// (one struct: one cache line per posting visited).
+#[derive(Debug, Clone, Copy, Default)]
+struct SharedSums {
+    corr: f64,
+    min_powed: f64,
+    n: u32,
 }
 
 /// 0 for BLE, 1 for WiFi (index into [`ReferenceScans`]'s per-radio sums).
@@ -335,6 +371,11 @@ impl ReferenceScans {
             alone.push(a);
             powed_alone.push(p);
         }
+        let levels_lo = post_r10.iter().copied().min().unwrap_or(0);
+        let levels_hi = post_r10.iter().copied().max().unwrap_or(0);
+        let levels = (levels_lo..=levels_hi)
+            .map(|r10| PostingLevel::of(r10, m, &powed_table))
+            .collect();
         Ok(ReferenceScans {
             cfg,
             ids,
@@ -346,6 +387,8 @@ impl ReferenceScans {
             alone,
             powed_alone,
             powed_table,
+            levels,
+            levels_lo,
         })
     }
 
@@ -419,36 +462,18 @@ impl ReferenceScans {
         let q_only: f64 = q.iter().map(|(_, r)| (r - m) * (r - m)).sum();
         // each shared transmitter turns two "heard on one side only" terms
         // into one difference: visit only the scans that heard the query's
-        let mut shared: Vec<(f64, u32)> = vec![(0.0, 0); self.scans.len()];
         // powed: the summed min(level_query, level_scan) of the shared
         // transmitters (Bray-Curtis = 1 - 2 sum min / sum of all levels)
         let powed = metric == ScanMetric::BrayCurtisPowed;
-        let mut shared_min: Vec<f64> = if powed {
-            vec![0.0; self.scans.len()]
+        let shared = self.shared_sums(&q, powed);
+        let q_powed: f64 = if powed {
+            q.iter().map(|&(_, a)| powed_level(a, m)).sum()
         } else {
-            Vec::new()
+            0.0
         };
-        let mut q_powed = 0.0;
-        for &(j, a) in &q {
-            let pa = if powed { powed_level(a, m) } else { 0.0 };
-            q_powed += pa;
-            let (lo, hi) = (
-                self.post_start[j as usize] as usize,
-                self.post_start[j as usize + 1] as usize,
-            );
-            for (&si, &r10) in self.post_scan[lo..hi].iter().zip(&self.post_r10[lo..hi]) {
-                // the same value as `new` floors for the sums (f64 / 10)
-                let r = super::radio_map::tenths(r10).max(m);
-                let e = &mut shared[si as usize];
-                e.0 += (a - r) * (a - r) - (a - m) * (a - m) - (r - m) * (r - m);
-                e.1 += 1;
-                if powed {
-                    shared_min[si as usize] += pa.min(tabled_level(&self.powed_table, r, m));
-                }
-            }
-        }
         let mut out: Vec<(f64, f64, usize)> = Vec::new();
-        for (si, &(corr, n_shared)) in shared.iter().enumerate() {
+        for (si, sh) in shared.iter().enumerate() {
+            let (corr, n_shared) = (sh.corr, sh.n);
             if n_shared == 0 {
                 continue;
             }
@@ -465,7 +490,7 @@ impl ReferenceScans {
             let d = (sum.max(0.0) / f64::from(n.max(1))).sqrt();
             let score = if powed {
                 if total > 0.0 {
-                    (1.0 - 2.0 * shared_min[si] / total).max(0.0)
+                    (1.0 - 2.0 * sh.min_powed / total).max(0.0)
                 } else {
                     1.0
                 }
@@ -500,6 +525,34 @@ impl ReferenceScans {
 }
 
 impl ReferenceScans {
+    /// The postings walk of [`ReferenceScans::query_with`]: per scan, the
+    /// sums over the transmitters it shares with `q` (RSSIs floored at
+    /// `missing_dbm`), the powed minima only when `powed`. Each shared
+    /// transmitter turns two "heard on one side only" terms into one
+    /// difference: (a - r)^2 - (a - m)^2 - (r - m)^2.
+    fn shared_sums(&self, q: &[(u32, f64)], powed: bool) -> Vec<SharedSums> {
+        let m = self.cfg.missing_dbm;
+        let mut shared = vec![SharedSums::default(); self.scans.len()];
+        for &(j, a) in q {
+            let pa = if powed { powed_level(a, m) } else { 0.0 };
+            let a_m2 = (a - m) * (a - m);
+            let (lo, hi) = (
+                self.post_start[j as usize] as usize,
+                self.post_start[j as usize + 1] as usize,
+            );
+            for (&si, &r10) in self.post_scan[lo..hi].iter().zip(&self.post_r10[lo..hi]) {
+                let l = &self.levels[(i32::from(r10) - i32::from(self.levels_lo)) as usize];
+                let e = &mut shared[si as usize];
+                e.corr += (a - l.r) * (a - l.r) - a_m2 - l.r_m2;
+                e.n += 1;
+                if powed {
+                    e.min_powed += pa.min(l.powed);
+                }
+            }
+        }
+        shared
+    }
+
     /// [`ReferenceScans::query_with`] over the radios `query` holds, each
     /// of the `k` candidates weighted exp(-(s - s_best) / `tau`) of its
     /// `metric` score s (dB for [`ScanMetric::RmsDb`]), the weights
@@ -851,6 +904,34 @@ mod tests {
         let low = powed_level(-80.0, -100.0) - powed_level(-90.0, -100.0);
         let high = powed_level(-40.0, -100.0) - powed_level(-50.0, -100.0);
         assert!(high > 2.0 * low, "{low} {high}");
+    }
+
+    #[test]
+    fn the_level_table_is_the_per_posting_arithmetic() {
+        // RSSIs below the missing level (floored), at it, and up to 0 dBm
+        let ids: Vec<(TxKind, String)> = (0..3).map(|i| (TxKind::Wifi, format!("id{i}"))).collect();
+        let scans: Vec<ReferenceScan> = [-1500i16, -1000, -999, -655, -1, 0]
+            .iter()
+            .enumerate()
+            .map(|(i, &r10)| ReferenceScan {
+                floor: 0,
+                x_m: i as f64,
+                y_m: 0.0,
+                tx: vec![(i as u32 % 3, r10)],
+            })
+            .collect();
+        let set = ReferenceScans::new(ReferenceScanConfig::default(), ids, scans).unwrap();
+        let m = set.cfg.missing_dbm;
+        for &r10 in &set.post_r10 {
+            let l = set.levels[(i32::from(r10) - i32::from(set.levels_lo)) as usize];
+            // the query's arithmetic before the table, value by value
+            let r = super::super::radio_map::tenths(r10).max(m);
+            assert_eq!(l.r.to_bits(), r.to_bits());
+            assert_eq!(l.r_m2.to_bits(), ((r - m) * (r - m)).to_bits());
+            let want = tabled_level(&set.powed_table, r, m);
+            assert_eq!(l.powed.to_bits(), want.to_bits());
+        }
+        assert_eq!(set.levels.len(), 1501);
     }
 
     #[test]

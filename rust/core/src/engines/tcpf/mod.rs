@@ -156,20 +156,108 @@ fn anchor_mix(anchors: &[Anchor], floor: i32, p: Vec2, sigma_m: f64) -> f64 {
         .sum()
 }
 
-/// [`anchor_mix`] at every point of `ps`, appended to `out` (the anchors
-/// of `floor` picked once).
+/// [`anchor_mix`] at every point of `ps`, appended to `out`: anchor by
+/// anchor over the cloud, the exponentials by [`exp_many`] (vectorises;
+/// [`fast_exp`]'s values, added per point in the same order, so the same
+/// sums).
 fn anchor_mix_many(anchors: &[Anchor], floor: i32, ps: &[Vec2], sigma_m: f64, out: &mut Vec<f64>) {
     let k = -0.5 / (sigma_m * sigma_m);
-    let here: Vec<(Vec2, f64)> = anchors
-        .iter()
-        .filter(|a| a.floor == floor)
-        .map(|a| (a.pos, a.w))
-        .collect();
-    out.extend(ps.iter().map(|p| {
-        here.iter()
-            .map(|(q, w)| w * fast_exp((p - q).norm_squared() * k))
-            .sum::<f64>()
-    }));
+    let start = out.len();
+    // -0.0: where `Iterator::sum` of f64 starts (no anchor: the same -0.0)
+    out.resize(start + ps.len(), -0.0);
+    let (mut xs, mut e) = (Vec::with_capacity(ps.len()), vec![0.0; ps.len()]);
+    for a in anchors.iter().filter(|a| a.floor == floor) {
+        xs.clear();
+        xs.extend(ps.iter().map(|p| (p - a.pos).norm_squared() * k));
+        exp_many(&xs, &mut e);
+        for (o, e) in out[start..].iter_mut().zip(&e) {
+            *o += a.w * e;
+        }
+    }
+}
+
+/// At most this many (mean, sd) pairs in [`CellExpected`] (16 MB); past
+/// it the surface samples the model as before.
+const CELL_EXPECTED_MAX: usize = 1 << 20;
+
+/// The model's expected RSSI (mean, sd) of transmitters over a floor's
+/// start / re-seeding cells, computed once per (floor, transmitter): the
+/// cells and the model never change, so the likelihood surface of every
+/// recovery check reads the same values instead of sampling the model
+/// again (two thirds of a surface's work with a radio map).
+#[derive(Debug, Default)]
+struct CellExpected {
+    by: BTreeMap<(i32, usize), (Vec<f64>, Vec<f64>)>,
+    pairs: usize,
+}
+
+impl CellExpected {
+    /// Computes the transmitters of `meas` not yet held for `floor` over
+    /// `cells` (those the model knows, while under [`CELL_EXPECTED_MAX`]).
+    fn fill(&mut self, model: &dyn RadioModel, floor: i32, cells: &[Vec2], meas: &[Measurement]) {
+        for m in meas {
+            if self.by.contains_key(&(floor, m.tx)) || self.pairs + cells.len() > CELL_EXPECTED_MAX
+            {
+                continue;
+            }
+            let (mut mean, mut sd) = (vec![0.0; cells.len()], vec![0.0; cells.len()]);
+            if model.expected_many(m.tx, floor, cells, &mut mean, &mut sd) {
+                self.by.insert((floor, m.tx), (mean, sd));
+                self.pairs += cells.len();
+            }
+        }
+    }
+}
+
+/// `model` with the expected RSSI over `cells` of `floor` read from
+/// `cache` where it holds them (the same values; anything else asks
+/// `model`).
+struct WithCells<'a> {
+    model: &'a dyn RadioModel,
+    floor: i32,
+    cells: &'a [Vec2],
+    cache: &'a CellExpected,
+}
+
+impl RadioModel for WithCells<'_> {
+    fn transmitters(&self) -> &[crate::radio::Transmitter] {
+        self.model.transmitters()
+    }
+
+    fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
+        self.model.lookup(kind, id)
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        self.model.expected(tx, floor, p)
+    }
+
+    fn expected_many(
+        &self,
+        tx: usize,
+        floor: i32,
+        ps: &[Vec2],
+        mean: &mut [f64],
+        sd: &mut [f64],
+    ) -> bool {
+        // the very cell list (not merely as many points)
+        let cells = floor == self.floor && std::ptr::eq(ps, self.cells);
+        if let (true, Some((m, s))) = (cells, self.cache.by.get(&(floor, tx))) {
+            let n = ps.len();
+            mean[..n].copy_from_slice(m);
+            sd[..n].copy_from_slice(s);
+            return true;
+        }
+        self.model.expected_many(tx, floor, ps, mean, sd)
+    }
+
+    fn learned_per_floor(&self) -> bool {
+        self.model.learned_per_floor()
+    }
+
+    fn reference_scans(&self) -> Option<&crate::radio::reference_scans::ReferenceScans> {
+        self.model.reference_scans()
+    }
 }
 
 /// The tightly coupled radio-likelihood particle filter.
@@ -215,6 +303,8 @@ pub struct TcpfEngine {
     walled: BTreeMap<i32, bool>,
     /// Start / re-seeding cells per floor (walkable, `cell_m` apart).
     cells: BTreeMap<i32, Vec<Vec2>>,
+    /// The model's expected RSSI over those cells, per heard transmitter.
+    cell_expected: CellExpected,
     before: Vec<Vec2>,
     crossed: Vec<bool>,
     log_l: Vec<f64>,
@@ -327,6 +417,7 @@ impl TcpfEngine {
             floor: start_floor,
             other_floor: None,
             cells,
+            cell_expected: CellExpected::default(),
             before: Vec::new(),
             crossed: Vec::new(),
             log_l: Vec::new(),
@@ -406,7 +497,7 @@ impl TcpfEngine {
     /// with the offset profiled per cell under N(`prior.0`, `prior.1`^2)
     /// (dB).
     fn surface(
-        &self,
+        &mut self,
         floor: i32,
         meas: &[Measurement],
         missing: &[(usize, f64)],
@@ -417,13 +508,20 @@ impl TcpfEngine {
         if cells.is_empty() || meas.is_empty() {
             return None;
         }
+        let model = self.model.as_ref();
+        self.cell_expected.fill(model, floor, cells, meas);
         let lc = &self.cfg.likelihood;
         let alpha = lc.alpha(meas.len());
         let (o0, sd0) = prior;
         let (mut offs, mut sds, mut ll) = (Vec::new(), Vec::new(), Vec::new());
-        let model = self.model.as_ref();
+        let cached = WithCells {
+            model,
+            floor,
+            cells,
+            cache: &self.cell_expected,
+        };
         profiled_many(
-            model, lc, meas, floor, cells, o0, sd0, &mut offs, &mut sds, &mut ll,
+            &cached, lc, meas, floor, cells, o0, sd0, &mut offs, &mut sds, &mut ll,
         );
         for ((l, c), o) in ll.iter_mut().zip(cells).zip(&offs) {
             let miss = missing_log_likelihood(model, lc, missing, floor, *c, *o);

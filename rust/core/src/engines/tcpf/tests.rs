@@ -391,3 +391,97 @@ const BEHIND_THE_WALL_EAST: InitialPosition = InitialPosition {
     floor: 0,
     heading_rad: None,
 };
+
+#[test]
+fn the_batched_anchor_mixture_is_the_per_point_one() {
+    // anchors on two floors (the other floor's left out), points near and
+    // far (exp underflows), to the bit
+    let anchors: Vec<Anchor> = (0..9)
+        .map(|k| Anchor {
+            floor: i32::from(k % 4 == 3),
+            pos: Vec2::new(3.0 * f64::from(k), 20.0 - 2.5 * f64::from(k)),
+            w: 0.05 + 0.02 * f64::from(k),
+            dist_db: 0.0,
+        })
+        .collect();
+    let ps: Vec<Vec2> = (0..777)
+        .map(|i| Vec2::new(f64::from(i % 37) * 0.9 - 3.0, f64::from(i / 37) * 1.3))
+        .chain([Vec2::new(5e3, -7e3)])
+        .collect();
+    for (floor, sigma_m) in [(0, 8.0), (1, 4.0), (2, 8.0)] {
+        let mut out = vec![7.0];
+        anchor_mix_many(&anchors, floor, &ps, sigma_m, &mut out);
+        assert_eq!(out.len(), ps.len() + 1);
+        for (p, m) in ps.iter().zip(&out[1..]) {
+            assert_eq!(
+                m.to_bits(),
+                anchor_mix(&anchors, floor, *p, sigma_m).to_bits()
+            );
+        }
+    }
+}
+
+#[test]
+fn the_cell_cache_gives_the_models_values() {
+    use crate::ble::pathloss::PathLoss;
+    use crate::radio::model::{PathLossModel, PathLossParams, Transmitter};
+    let tx: Vec<Transmitter> = (0..4)
+        .map(|k| Transmitter {
+            id: format!("t{k}"),
+            kind: TxKind::Ble,
+            floor: 0,
+            pos: Vec2::new(2.0 + 5.0 * f64::from(k), 3.0),
+            dz_m: 1.0,
+            model: PathLoss {
+                rssi_1m_dbm: -60.0,
+                exponent: 2.1,
+            },
+        })
+        .collect();
+    let model = PathLossModel::from_transmitters(
+        tx,
+        PathLossParams {
+            ble_sd_db: 6.0,
+            wifi_sd_db: 6.0,
+            floor_loss_db: 15.0,
+            other_floor_sd_db: 4.0,
+            min_range_m: 0.5,
+            phone_height_m: 1.2,
+        },
+    );
+    let cells: Vec<Vec2> = (0..300)
+        .map(|i| Vec2::new(f64::from(i % 20), f64::from(i / 20)))
+        .collect();
+    let meas: Vec<Measurement> = [1usize, 3, 99]
+        .iter()
+        .map(|&tx| Measurement {
+            tx,
+            rssi_dbm: -70.0,
+            readings: 1,
+        })
+        .collect();
+    let mut cache = CellExpected::default();
+    cache.fill(&model, 0, &cells, &meas);
+    // the known transmitters held, the unknown one not
+    assert_eq!(cache.by.len(), 2);
+    assert_eq!(cache.pairs, 2 * cells.len());
+    let with = WithCells {
+        model: &model,
+        floor: 0,
+        cells: &cells,
+        cache: &cache,
+    };
+    let copy = cells.clone();
+    let n = cells.len();
+    for (floor, ps) in [(0, &cells), (0, &copy), (1, &cells)] {
+        for tx in 0..5 {
+            let (mut a, mut b) = ((vec![0.0; n], vec![0.0; n]), (vec![0.0; n], vec![0.0; n]));
+            let ka = with.expected_many(tx, floor, ps, &mut a.0, &mut a.1);
+            let kb = model.expected_many(tx, floor, ps, &mut b.0, &mut b.1);
+            assert_eq!(ka, kb);
+            if ka {
+                assert_eq!(a, b, "tx {tx}, floor {floor}");
+            }
+        }
+    }
+}

@@ -386,11 +386,7 @@ impl CloudLikelihood {
     #[inline(always)]
     fn drain(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool, ln: fn(f64) -> f64) {
         if sd_varies {
-            let it = self.prod.iter_mut().zip(self.sd_prod.iter_mut());
-            for (u, (q, qs)) in out.iter_mut().zip(it) {
-                *u -= half_nu1 * ln(*q) + ln(*qs);
-                (*q, *qs) = (1.0, 1.0);
-            }
+            drain_products(out, &mut self.prod, &mut self.sd_prod, half_nu1, ln);
         } else {
             for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
                 *u -= half_nu1 * ln(*q);
@@ -549,9 +545,9 @@ crate::simd::avx2_dispatch! {
 }
 
 /// `lls -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`, the
-/// products reset to 1.
+/// products reset to 1 (the cloud's drain and the likelihood surface's).
 #[inline(always)]
-fn drain_profiled(
+fn drain_products(
     lls: &mut [f64],
     prod: &mut [f64],
     sd_prod: &mut [f64],
@@ -618,9 +614,9 @@ fn profiled_many_in(
         });
         // fast_ln's values; the branch-free logarithm where it may (vectorises)
         if normal {
-            drain_profiled(lls, prod, sd_prod, half_nu1, ln_normal);
+            drain_products(lls, prod, sd_prod, half_nu1, ln_normal);
         } else {
-            drain_profiled(lls, prod, sd_prod, half_nu1, fast_ln);
+            drain_products(lls, prod, sd_prod, half_nu1, fast_ln);
         }
     };
     for (k, m) in meas.iter().enumerate() {

@@ -368,31 +368,12 @@ impl CloudLikelihood {
     /// Moves the products into `out` and resets them.
     #[inline(always)]
     fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool) {
-        let normal = |v: &[f64]| {
-            v.iter().fold(true, |ok, q| {
-                ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
-            })
+        let sd_prod = if sd_varies {
+            Some(&mut self.sd_prod[..])
+        } else {
+            None
         };
-        if normal(&self.prod) && (!sd_varies || normal(&self.sd_prod)) {
-            // the branch-free logarithm (vectorises): fast_ln's values
-            self.drain(out, half_nu1, sd_varies, ln_normal);
-        } else {
-            self.drain(out, half_nu1, sd_varies, fast_ln);
-        }
-    }
-
-    /// `out -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`,
-    /// the products reset to 1.
-    #[inline(always)]
-    fn drain(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool, ln: fn(f64) -> f64) {
-        if sd_varies {
-            drain_products(out, &mut self.prod, &mut self.sd_prod, half_nu1, ln);
-        } else {
-            for (u, q) in out.iter_mut().zip(self.prod.iter_mut()) {
-                *u -= half_nu1 * ln(*q);
-                *q = 1.0;
-            }
-        }
+        drain_products(out, &mut self.prod, sd_prod, half_nu1);
     }
 
     /// For the `k`-th measurement of the last
@@ -544,19 +525,47 @@ crate::simd::avx2_dispatch! {
     }
 }
 
-/// `lls -= half_nu1 ln(prod) + ln(sd_prod)` with the logarithm `ln`, the
-/// products reset to 1 (the cloud's drain and the likelihood surface's).
+/// `out -= half_nu1 ln(prod) + ln(sd_prod)` (without `sd_prod`: `out -=
+/// half_nu1 ln(prod)`), the products reset to 1, with [`fast_ln`]'s values:
+/// the branch-free logarithm (vectorises) when every product is normal.
+/// The cloud's flush and the likelihood surface's.
 #[inline(always)]
-fn drain_products(
-    lls: &mut [f64],
+fn drain_products(out: &mut [f64], prod: &mut [f64], sd_prod: Option<&mut [f64]>, half_nu1: f64) {
+    let normal = |v: &[f64]| {
+        v.iter().fold(true, |ok, q| {
+            ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
+        })
+    };
+    // two calls with a constant logarithm each, so each inlines and vectorises
+    if normal(prod) && sd_prod.as_deref().is_none_or(normal) {
+        drain_with(out, prod, sd_prod, half_nu1, ln_normal);
+    } else {
+        drain_with(out, prod, sd_prod, half_nu1, fast_ln);
+    }
+}
+
+/// [`drain_products`] with the logarithm `ln`.
+#[inline(always)]
+fn drain_with(
+    out: &mut [f64],
     prod: &mut [f64],
-    sd_prod: &mut [f64],
+    sd_prod: Option<&mut [f64]>,
     half_nu1: f64,
     ln: fn(f64) -> f64,
 ) {
-    for ((l, q), qs) in lls.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
-        *l -= half_nu1 * ln(*q) + ln(*qs);
-        (*q, *qs) = (1.0, 1.0);
+    match sd_prod {
+        Some(sd_prod) => {
+            for ((u, q), qs) in out.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
+                *u -= half_nu1 * ln(*q) + ln(*qs);
+                (*q, *qs) = (1.0, 1.0);
+            }
+        }
+        None => {
+            for (u, q) in out.iter_mut().zip(prod.iter_mut()) {
+                *u -= half_nu1 * ln(*q);
+                *q = 1.0;
+            }
+        }
     }
 }
 
@@ -608,17 +617,6 @@ fn profiled_many_in(
     let inv_nu = 1.0 / cfg.student_nu;
     let (mut prod, mut sd_prod) = (vec![1.0; n], vec![1.0; n]);
     let mut terms = 0;
-    let flush = |lls: &mut [f64], prod: &mut [f64], sd_prod: &mut [f64]| {
-        let normal = prod.iter().chain(sd_prod.iter()).fold(true, |ok, q| {
-            ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
-        });
-        // fast_ln's values; the branch-free logarithm where it may (vectorises)
-        if normal {
-            drain_products(lls, prod, sd_prod, half_nu1, ln_normal);
-        } else {
-            drain_products(lls, prod, sd_prod, half_nu1, fast_ln);
-        }
-    };
     for (k, m) in meas.iter().enumerate() {
         if !known[k] {
             continue;
@@ -632,12 +630,12 @@ fn profiled_many_in(
         }
         terms += 1;
         if terms == PRODUCT_TERMS {
-            flush(lls, &mut prod, &mut sd_prod);
+            drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1);
             terms = 0;
         }
     }
     if terms > 0 {
-        flush(lls, &mut prod, &mut sd_prod);
+        drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1);
     }
     for (l, o) in lls.iter_mut().zip(offsets.iter()) {
         let z0 = (o - prior_db) / prior_sd_db.max(1e-3);

@@ -95,6 +95,18 @@ crate::simd::avx2_dispatch! {
     }
 }
 
+/// `buf` resized to `K` * `m` and cut into `K` consecutive rows of `m`
+/// (the draw arrays of one batched predict).
+fn rows<const K: usize>(buf: &mut Vec<f64>, m: usize) -> [&mut [f64]; K] {
+    buf.resize(K * m, 0.0);
+    let mut rest = &mut buf[..];
+    std::array::from_fn(|_| {
+        let (row, tail) = std::mem::take(&mut rest).split_at_mut(m);
+        rest = tail;
+        row
+    })
+}
+
 /// Normalises `weights` to sum 1 (uniform when they are all zero or not finite).
 fn normalize_weights(weights: &mut [f64]) {
     let sum: f64 = weights.iter().sum();
@@ -300,11 +312,7 @@ impl ParticleFilter {
             // per particle the draws of a then b (two uniforms each), as
             // two calls of std_normal would take them; Box-Muller batched
             let m = self.particles.len();
-            let d = &mut self.draw_buf;
-            d.resize(4 * m, 0.0);
-            let (a1, rest) = d.split_at_mut(m);
-            let (a2, rest) = rest.split_at_mut(m);
-            let (b1, b2) = rest.split_at_mut(m);
+            let [a1, a2, b1, b2] = rows(&mut self.draw_buf, m);
             let outs = &mut [&mut *a1, &mut *a2, &mut *b1, &mut *b2];
             fill_interleaved(&mut self.rng, &mut self.uniform_buf, m, outs);
             box_muller_in_place(a1, a2);
@@ -380,13 +388,7 @@ impl ParticleFilter {
         // same operations on the same values as drawing inside the loop.
         let (off_on, scale_on) = (a > 0.0 || walk_off > 0.0, walk_scale > 0.0);
         let m = self.particles.len();
-        let d = &mut self.draw_buf;
-        d.resize(6 * m, 0.0);
-        let (o1, rest) = d.split_at_mut(m);
-        let (o2, rest) = rest.split_at_mut(m);
-        let (s1, rest) = rest.split_at_mut(m);
-        let (s2, rest) = rest.split_at_mut(m);
-        let (us, uth) = rest.split_at_mut(m);
+        let [o1, o2, s1, s2, us, uth] = rows(&mut self.draw_buf, m);
         let (rng, buf) = (&mut self.rng, &mut self.uniform_buf);
         match (off_on, scale_on) {
             (true, true) => fill_interleaved(rng, buf, m, &mut [o1, o2, s1, s2, us, uth]),

@@ -148,61 +148,7 @@ impl<'a> GridSampler<'a> {
         }
     }
 
-    /// [`Grid::sample`] at `p`, bit for bit (unit test): the reference
-    /// of [`GridSampler::sample_many`].
-    #[cfg(test)]
-    fn sample(&self, p: Vec2) -> Option<(f64, f64)> {
-        let g = self.g;
-        let (u, v) = if self.inv_cell != 0.0 {
-            (
-                (p.x - g.x0_m) * self.inv_cell,
-                (p.y - g.y0_m) * self.inv_cell,
-            )
-        } else {
-            ((p.x - g.x0_m) / g.cell_m, (p.y - g.y0_m) / g.cell_m)
-        };
-        if !(u >= 0.0 && v >= 0.0 && u < self.nx && v < self.ny) {
-            return None;
-        }
-        let (fu, fv) = (u - 0.5, v - 0.5);
-        // 0 <= max(fu, 0) < nx: the cast through i64 is floor (as
-        // Grid::sample's saturating one) in fewer instructions; fu - i0 is
-        // below 1, so clamp(0, 1) is max(0)
-        let (i0, j0) = (fu.max(0.0) as i64 as usize, fv.max(0.0) as i64 as usize);
-        let (i1, j1) = ((i0 + 1).min(g.nx - 1), (j0 + 1).min(g.ny - 1));
-        let (tx, ty) = ((fu - i0 as f64).max(0.0), (fv - j0 as f64).max(0.0));
-        let (r0, r1) = (j0.saturating_mul(g.nx), j1.saturating_mul(g.nx));
-        let ks = [
-            r0.saturating_add(i0),
-            r0.saturating_add(i1),
-            r1.saturating_add(i0),
-            r1.saturating_add(i1),
-        ];
-        let (mut m, mut s) = ([NO_VALUE; 4], [NO_VALUE; 4]);
-        let mut ok = true;
-        for c in 0..4 {
-            m[c] = g.mean_dbm_x10.get(ks[c]).copied().unwrap_or(NO_VALUE);
-            s[c] = g.sd_dbm_x10.get(ks[c]).copied().unwrap_or(NO_VALUE);
-            ok &= (m[c] != NO_VALUE) & (s[c] != NO_VALUE);
-        }
-        if !ok {
-            return g.at(u as usize, v as usize);
-        }
-        let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
-        let mean = lerp(
-            lerp(tenths(m[0]), tenths(m[1]), tx),
-            lerp(tenths(m[2]), tenths(m[3]), tx),
-            ty,
-        );
-        let sd = lerp(
-            lerp(tenths(s[0]), tenths(s[1]), tx),
-            lerp(tenths(s[2]), tenths(s[3]), tx),
-            ty,
-        );
-        Some((mean, sd))
-    }
-
-    /// `sample(ps[i])`, else `fast.at(ps[i])`, into `mean[i]`, `sd[i]`
+    /// [`Grid::sample`]`(ps[i])`, else `fast.at(ps[i])`, into `mean[i]`, `sd[i]`
     /// for every i, bit for bit (unit test): the same arithmetic in two
     /// passes, the cell coordinates and weights of every point first
     /// (vectorises), then per point the corners and the blend, the
@@ -245,7 +191,7 @@ impl<'a> GridSampler<'a> {
     }
 
     /// The cell coordinates of every point of `ps` appended to `at` (as
-    /// [`GridSampler::sample`] computes them).
+    /// [`Grid::sample`] computes them).
     fn locate(&self, ps: &[Vec2], at: &mut Vec<CellAt>) {
         let g = self.g;
         let (nx, ny) = (self.nx, self.ny);
@@ -600,11 +546,10 @@ impl RadioModel for RadioMap {
         let apart = self.floors_apart(floor, t.floor);
         let fb = &self.fallback;
         let fast = FastFallback::new(t, e.has_pathloss, fb, apart);
-        let out = ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut());
         match grid {
             Some(g) => GridSampler::new(g).sample_many(ps, &fast, mean, sd),
             None => {
-                for ((p, m), s) in out {
+                for ((p, m), s) in ps.iter().zip(mean.iter_mut()).zip(sd.iter_mut()) {
                     (*m, *s) = fast.at(*p);
                 }
             }

@@ -430,18 +430,12 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
                     x0_m + w * f64::from(i) / 400.0 + 1e-3 * f64::from(j % 7),
                     7.25 + h * f64::from(j) / 280.0,
                 );
-                let (a, b) = (g.sample(p), gs.sample(p));
-                assert_eq!(
-                    a.map(|(m, s)| (m.to_bits(), s.to_bits())),
-                    b.map(|(m, s)| (m.to_bits(), s.to_bits())),
-                    "{p:?}"
-                );
-                checked += usize::from(a.is_some());
+                checked += usize::from(g.sample(p).is_some());
                 ps.push(p);
             }
         }
         assert!(checked > 50_000, "{checked}");
-        // the three passes: the per-point sample, else the fallback
+        // the two passes against the per-point sample, else the fallback
         let t = Transmitter {
             id: "t".into(),
             kind: TxKind::Wifi,
@@ -458,7 +452,7 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
             let (mut mean, mut sd) = (vec![0.0; ps.len()], vec![0.0; ps.len()]);
             gs.sample_many(&ps, &fast, &mut mean, &mut sd);
             for (i, p) in ps.iter().enumerate() {
-                let (m, s) = gs.sample(*p).unwrap_or_else(|| fast.at(*p));
+                let (m, s) = g.sample(*p).unwrap_or_else(|| fast.at(*p));
                 assert_eq!(
                     (m.to_bits(), s.to_bits()),
                     (mean[i].to_bits(), sd[i].to_bits())

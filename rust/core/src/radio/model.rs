@@ -43,10 +43,12 @@ pub(crate) fn lookup_in(
     }
     let canon = match kind {
         TxKind::Ble => normalize_beacon_id(id).ok()?,
-        // a BSSID without upper case is its own canonical form: already
-        // looked up (most BSSIDs a phone hears are not in the model)
-        TxKind::Wifi if !id.bytes().any(|b| b.is_ascii_uppercase()) => return None,
-        TxKind::Wifi => id.to_ascii_lowercase(),
+        TxKind::Wifi => match crate::wifi::canonical_bssid(id) {
+            // its own canonical form: already looked up (most BSSIDs a
+            // phone hears are not in the model)
+            std::borrow::Cow::Borrowed(_) => return None,
+            std::borrow::Cow::Owned(c) => c,
+        },
     };
     by_id.get(&(kind, canon)).copied()
 }

@@ -33,6 +33,17 @@ pub fn is_bssid(s: &str) -> bool {
         })
 }
 
+/// A BSSID in its canonical (lower-case) spelling: `id` itself when it has
+/// no upper case (no allocation: most BSSIDs a phone hears already are),
+/// else a lower-cased copy.
+pub fn canonical_bssid(id: &str) -> std::borrow::Cow<'_, str> {
+    if id.bytes().any(|b| b.is_ascii_uppercase()) {
+        std::borrow::Cow::Owned(id.to_ascii_lowercase())
+    } else {
+        std::borrow::Cow::Borrowed(id)
+    }
+}
+
 /// A WiFi band from a channel centre frequency.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -136,6 +147,20 @@ impl FreshResults {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn canonical_bssid_lowers_only_what_needs_it() {
+        use std::borrow::Cow;
+        assert!(matches!(
+            canonical_bssid("aa:bb:cc:dd:ee:0f"),
+            Cow::Borrowed("aa:bb:cc:dd:ee:0f")
+        ));
+        assert_eq!(canonical_bssid("AA:bb:CC:dd:EE:0F"), "aa:bb:cc:dd:ee:0f");
+        assert!(matches!(
+            canonical_bssid("AA:BB:CC:DD:EE:0F"),
+            Cow::Owned(_)
+        ));
+    }
 
     fn res(b: &str, seen: i64) -> WifiResult {
         WifiResult {

@@ -460,17 +460,14 @@ impl ReferenceScans {
             return Vec::new();
         }
         let q_only: f64 = q.iter().map(|(_, r)| (r - m) * (r - m)).sum();
-        // each shared transmitter turns two "heard on one side only" terms
-        // into one difference: visit only the scans that heard the query's
-        // powed: the summed min(level_query, level_scan) of the shared
-        // transmitters (Bray-Curtis = 1 - 2 sum min / sum of all levels)
+        // powed: the query's levels, once (Bray-Curtis = 1 - 2 sum of the
+        // shared transmitters' min(level_query, level_scan) / sum of all
+        // levels)
         let powed = metric == ScanMetric::BrayCurtisPowed;
-        let shared = self.shared_sums(&q, powed);
-        let q_powed: f64 = if powed {
-            q.iter().map(|&(_, a)| powed_level(a, m)).sum()
-        } else {
-            0.0
-        };
+        let q_levels: Option<Vec<f64>> =
+            powed.then(|| q.iter().map(|&(_, a)| powed_level(a, m)).collect());
+        let shared = self.shared_sums(&q, q_levels.as_deref());
+        let q_powed: f64 = q_levels.as_ref().map_or(0.0, |l| l.iter().sum());
         let mut out: Vec<(f64, f64, usize)> = Vec::new();
         for (si, sh) in shared.iter().enumerate() {
             let (corr, n_shared) = (sh.corr, sh.n);
@@ -527,14 +524,17 @@ impl ReferenceScans {
 impl ReferenceScans {
     /// The postings walk of [`ReferenceScans::query_with`]: per scan, the
     /// sums over the transmitters it shares with `q` (RSSIs floored at
-    /// `missing_dbm`), the powed minima only when `powed`. Each shared
-    /// transmitter turns two "heard on one side only" terms into one
-    /// difference: (a - r)^2 - (a - m)^2 - (r - m)^2.
-    fn shared_sums(&self, q: &[(u32, f64)], powed: bool) -> Vec<SharedSums> {
+    /// `missing_dbm`; only the scans that heard one of them are visited),
+    /// the powed minima only with the query's powed levels `q_levels`
+    /// (one per entry of `q`). Each shared transmitter turns two "heard on
+    /// one side only" terms into one difference: (a - r)^2 - (a - m)^2 -
+    /// (r - m)^2.
+    fn shared_sums(&self, q: &[(u32, f64)], q_levels: Option<&[f64]>) -> Vec<SharedSums> {
         let m = self.cfg.missing_dbm;
+        let powed = q_levels.is_some();
         let mut shared = vec![SharedSums::default(); self.scans.len()];
-        for &(j, a) in q {
-            let pa = if powed { powed_level(a, m) } else { 0.0 };
+        for (i, &(j, a)) in q.iter().enumerate() {
+            let pa = q_levels.map_or(0.0, |l| l[i]);
             let a_m2 = (a - m) * (a - m);
             let (lo, hi) = (
                 self.post_start[j as usize] as usize,
@@ -740,12 +740,7 @@ impl ScanTrail {
 
     /// A WiFi result of `bssid` heard at `t_ns`, if `scans` knows it.
     pub fn push_wifi(&mut self, scans: &ReferenceScans, bssid: &str, t_ns: i64, rssi_dbm: f64) {
-        let j = if bssid.bytes().any(|b| b.is_ascii_uppercase()) {
-            scans.index_of(TxKind::Wifi, &bssid.to_ascii_lowercase())
-        } else {
-            scans.index_of(TxKind::Wifi, bssid)
-        };
-        if let Some(j) = j {
+        if let Some(j) = scans.index_of(TxKind::Wifi, &crate::wifi::canonical_bssid(bssid)) {
             self.push(t_ns, j, rssi_dbm);
         }
     }

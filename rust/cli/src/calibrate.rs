@@ -15,6 +15,7 @@ use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, ca
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
+use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::site::SiteSpec;
@@ -241,28 +242,15 @@ fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
 /// The survey log's PDR-vs-truth displacements ([`segments`]): the `pdr`
 /// engine replayed from the log's first truth point on the input site.
 fn pdr_segments(
-    path: &Path,
-    events: &[LogEvent],
+    log: &LoadedLog,
     site: &Arc<fpbp_core::site::Site>,
     cfg: &EngineConfig,
 ) -> Result<Vec<HeadingSegment>> {
-    if !events.iter().any(|e| matches!(e, LogEvent::Truth(_))) {
+    if !log.events.iter().any(|e| matches!(e, LogEvent::Truth(_))) {
         return Ok(Vec::new());
     }
-    let log = LoadedLog {
-        path: path.to_path_buf(),
-        name: path.display().to_string(),
-        events: events.to_vec(),
-        report: Default::default(),
-    };
-    let run = run_log(&core_builder, "pdr", site, cfg, InitMode::Truth, &log)?;
+    let run = run_log(&core_builder, "pdr", site, cfg, InitMode::Truth, log)?;
     Ok(segments(&run.out.scored))
-}
-
-fn wrap_pi(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = a.rem_euclid(t);
-    if r > std::f64::consts::PI { r - t } else { r }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -281,8 +269,14 @@ pub fn run(args: Args) -> Result<()> {
     for l in &logs {
         bar.set_message(format!("reading {}", l.display()));
         bar.inc(1);
-        let events = load_events(l, &opts)?;
-        heading_segments.extend(pdr_segments(l, &events, &input, &cfg)?);
+        let log = LoadedLog {
+            path: l.clone(),
+            name: l.display().to_string(),
+            events: load_events(l, &opts)?,
+            report: Default::default(),
+        };
+        heading_segments.extend(pdr_segments(&log, &input, &cfg)?);
+        let events = log.events;
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()
@@ -330,7 +324,7 @@ pub fn run(args: Args) -> Result<()> {
     match heading_bias(&heading_segments) {
         Some(b) => {
             let verdict = if b.significant() {
-                out.heading_bias_rad = wrap_pi(spec.heading_bias_rad + b.rad);
+                out.heading_bias_rad = wrap_angle(spec.heading_bias_rad + b.rad);
                 "applied"
             } else {
                 "within its noise, not applied"

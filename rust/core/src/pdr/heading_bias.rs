@@ -12,6 +12,7 @@
 
 use crate::Vec2;
 use crate::engine::replay::ScoredPoint;
+use crate::geometry::wrap_angle;
 
 /// Shortest truth displacement a segment needs, metres: below it the
 /// truth's own quantisation and a step or two of PDR noise turn the angle.
@@ -125,7 +126,7 @@ pub fn heading_bias(segs: &[HeadingSegment]) -> Option<HeadingBias> {
         (n > 0 && (s != 0.0 || c != 0.0)).then(|| (s.atan2(c), n))
     };
     let (first, _) = mean(&|_| true)?;
-    let near = |a: f64| wrap(a - first).abs() <= MAX_RESIDUAL_RAD;
+    let near = |a: f64| wrap_angle(a - first).abs() <= MAX_RESIDUAL_RAD;
     let (rad, used) = mean(&near)?;
     if used < MIN_SEGMENTS {
         return None;
@@ -133,7 +134,7 @@ pub fn heading_bias(segs: &[HeadingSegment]) -> Option<HeadingBias> {
     let (mut ss, mut ws) = (0.0, 0.0);
     for g in segs.iter().filter(|g| near(g.angle_rad())) {
         let w = g.truth.norm();
-        ss += w * wrap(g.angle_rad() - rad).powi(2);
+        ss += w * wrap_angle(g.angle_rad() - rad).powi(2);
         ws += w;
     }
     Some(HeadingBias {
@@ -144,33 +145,23 @@ pub fn heading_bias(segs: &[HeadingSegment]) -> Option<HeadingBias> {
     })
 }
 
-/// `a` wrapped into (-pi, pi].
-fn wrap(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let r = a.rem_euclid(t);
-    if r > std::f64::consts::PI { r - t } else { r }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::engine::{Pose, PoseSource};
     use crate::events::TruthPoint;
-
-    fn rot(v: Vec2, a: f64) -> Vec2 {
-        Vec2::new(v.x * a.cos() - v.y * a.sin(), v.x * a.sin() + v.y * a.cos())
-    }
+    use crate::geometry::rotate;
 
     /// Segments of a square-ish walk whose PDR is turned by `-bias` (so
     /// `bias` turns it back), with a deterministic +-`jitter` per segment.
     fn walk(bias: f64, jitter: f64, n: usize) -> Vec<HeadingSegment> {
         (0..n)
             .map(|k| {
-                let truth = rot(Vec2::new(4.0 + (k % 3) as f64, 0.0), 0.7 * k as f64);
+                let truth = rotate(Vec2::new(4.0 + (k % 3) as f64, 0.0), 0.7 * k as f64);
                 let j = if k % 2 == 0 { jitter } else { -jitter };
                 HeadingSegment {
                     truth,
-                    pdr: rot(truth, -bias + j) * 0.9,
+                    pdr: rotate(truth, -bias + j) * 0.9,
                 }
             })
             .collect()
@@ -222,7 +213,7 @@ mod tests {
     #[test]
     fn angles_wrap_across_pi() {
         let b = heading_bias(&walk(3.1, 0.05, 20)).unwrap();
-        assert!(wrap(b.rad - 3.1).abs() < 0.01, "{b:?}");
+        assert!(wrap_angle(b.rad - 3.1).abs() < 0.01, "{b:?}");
     }
 
     #[test]

@@ -65,12 +65,8 @@ fn main() -> Result<()> {
     // experiments, as `fpbp reproduce --profile-patch`).
     let mut profile = walk.profile.clone();
     if let Ok(patch) = std::env::var("PROFILE_PATCH") {
-        let mut v = serde_json::to_value(&profile)?;
-        merge(
-            &mut v,
-            &serde_json::from_str(&patch).context("PROFILE_PATCH")?,
-        );
-        profile = serde_json::from_value(v)?;
+        let p = serde_json::from_str(&patch).context("PROFILE_PATCH")?;
+        profile = fpbp_cli::json_patch::patched(&profile, &p)?;
         profile.validate()?;
     }
     let sim = fpbp_sim::simulate(

@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use anyhow::{Context, bail};
-use fpbp_cli::json_patch::merge;
+use fpbp_cli::json_patch::{merge, patched};
 use fpbp_core::engine::{EngineConfig, Task};
 use fpbp_core::site::Site;
 use fpbp_sim::SimRequest;
@@ -481,9 +481,7 @@ pub fn reproduce_paper(
         let p: serde_json::Value =
             serde_json::from_str(patch).with_context(|| format!("profile patch {patch}"))?;
         for w in &mut walks {
-            let mut value = serde_json::to_value(&w.profile)?;
-            merge(&mut value, &p);
-            w.profile = serde_json::from_value(value)
+            w.profile = patched(&w.profile, &p)
                 .with_context(|| format!("profile patch {patch} on {}", w.name))?;
             w.profile.validate()?;
         }

@@ -14,15 +14,16 @@ use fpbp_core::Vec2;
 use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
-use fpbp_core::events::LogEvent;
+use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
+use fpbp_core::radio::survey_track::{ShapeCounts, ShapeLimits, pdr_shaped_truth};
 use fpbp_core::site::SiteSpec;
 use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
 use fpbp_logs::{ReadOptions, read_all};
 
-use crate::common::{InitMode, LoadedLog, core_builder, run_log};
+use crate::common::{InitMode, LoadedLog, LogRun, core_builder, run_log};
 use crate::eval::{Split, select_logs};
 
 /// Arguments of `fpbp calibrate`.
@@ -75,6 +76,18 @@ pub struct Args {
     /// Write every surveyed transmitter's radio-map report as JSON here.
     #[arg(long, requires = "radio_map")]
     pub radio_map_report: Option<PathBuf>,
+    /// Where the survey walker was between two truth points: `pdr` (its
+    /// own PDR track, mapped onto the two points: pauses and turns kept)
+    /// or `linear` (a straight line at constant speed).
+    #[arg(long, value_enum, default_value = "linear")]
+    pub survey_track: SurveyTrack,
+}
+
+/// `fpbp calibrate --survey-track`.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SurveyTrack {
+    Linear,
+    Pdr,
 }
 
 fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
@@ -239,18 +252,78 @@ fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
     Ok(())
 }
 
-/// The survey log's PDR-vs-truth displacements ([`segments`]): the `pdr`
-/// engine replayed from the log's first truth point on the input site.
-fn pdr_segments(
+/// The survey log's `pdr` replay from its first truth point on the input
+/// site (none without truth).
+fn pdr_run(
     log: &LoadedLog,
     site: &Arc<fpbp_core::site::Site>,
     cfg: &EngineConfig,
-) -> Result<Vec<HeadingSegment>> {
+) -> Result<Option<LogRun>> {
     if !log.events.iter().any(|e| matches!(e, LogEvent::Truth(_))) {
-        return Ok(Vec::new());
+        return Ok(None);
     }
-    let run = run_log(&core_builder, "pdr", site, cfg, InitMode::Truth, log)?;
-    Ok(segments(&run.out.scored))
+    run_log(&core_builder, "pdr", site, cfg, InitMode::Truth, log).map(Some)
+}
+
+/// `events` with their truth points densified along the PDR `run`'s
+/// track ([`pdr_shaped_truth`]), in time order.
+fn shaped_events(events: Vec<LogEvent>, run: &LogRun) -> (Vec<LogEvent>, ShapeCounts) {
+    let truth: Vec<TruthPoint> = events
+        .iter()
+        .filter_map(|e| match e {
+            LogEvent::Truth(t) => Some(*t),
+            _ => None,
+        })
+        .collect();
+    let track: Vec<(i64, Vec2)> = run
+        .out
+        .track
+        .iter()
+        .map(|p| (p.t_ns, Vec2::new(p.x_m, p.y_m)))
+        .collect();
+    let (dense, counts) = pdr_shaped_truth(&truth, &track, &ShapeLimits::default());
+    let mut out = Vec::with_capacity(events.len() + counts.added);
+    let mut dense = dense.into_iter().peekable();
+    for e in events {
+        if matches!(e, LogEvent::Truth(_)) {
+            continue;
+        }
+        let t = e.t_ns();
+        while let Some(p) = dense.next_if(|p| p.t_ns <= t) {
+            out.push(LogEvent::Truth(p));
+        }
+        out.push(e);
+    }
+    out.extend(dense.map(LogEvent::Truth));
+    (out, counts)
+}
+
+/// One survey log read for calibration: its events (truth densified with
+/// `--survey-track pdr`) and its PDR-vs-truth displacements ([`segments`]).
+fn survey_log(
+    path: &Path,
+    opts: &ReadOptions,
+    site: &Arc<fpbp_core::site::Site>,
+    cfg: &EngineConfig,
+    track: SurveyTrack,
+) -> Result<(Vec<LogEvent>, Vec<HeadingSegment>, ShapeCounts)> {
+    let log = LoadedLog {
+        path: path.to_path_buf(),
+        name: path.display().to_string(),
+        events: load_events(path, opts)?,
+        report: Default::default(),
+    };
+    let Some(run) = pdr_run(&log, site, cfg)? else {
+        return Ok((log.events, Vec::new(), ShapeCounts::default()));
+    };
+    let segs = segments(&run.out.scored);
+    match track {
+        SurveyTrack::Linear => Ok((log.events, segs, ShapeCounts::default())),
+        SurveyTrack::Pdr => {
+            let (events, counts) = shaped_events(log.events, &run);
+            Ok((events, segs, counts))
+        }
+    }
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -264,19 +337,17 @@ pub fn run(args: Args) -> Result<()> {
     let mut paths = Vec::new();
     let mut wifi_paths = Vec::new();
     let mut heading_segments = Vec::new();
+    let mut shape = ShapeCounts::default();
     let input = crate::site_io::load_site(&args.site)?;
     let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
         bar.set_message(format!("reading {}", l.display()));
         bar.inc(1);
-        let log = LoadedLog {
-            path: l.clone(),
-            name: l.display().to_string(),
-            events: load_events(l, &opts)?,
-            report: Default::default(),
-        };
-        heading_segments.extend(pdr_segments(&log, &input, &cfg)?);
-        let events = log.events;
+        let (events, segs, counts) = survey_log(l, &opts, &input, &cfg, args.survey_track)?;
+        heading_segments.extend(segs);
+        shape.segments += counts.segments;
+        shape.shaped += counts.shaped;
+        shape.added += counts.added;
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()
@@ -320,6 +391,12 @@ pub fn run(args: Args) -> Result<()> {
         summary.transmitters - too_little,
         summary.accepted
     );
+    if args.survey_track == SurveyTrack::Pdr {
+        println!(
+            "survey track: {} of {} truth segments shaped by the PDR, {} truth points added",
+            shape.shaped, shape.segments, shape.added
+        );
+    }
     let mut out = apply_to_site(&spec, &reports, cfg.ble.phone_height_m);
     match heading_bias(&heading_segments) {
         Some(b) => {
@@ -363,10 +440,16 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(rm) = &args.radio_map {
         let site = crate::site_io::load_site(&args.out)?;
+        let load = |l: &Path| -> Result<Vec<LogEvent>> {
+            match args.survey_track {
+                SurveyTrack::Linear => load_events(l, &opts),
+                SurveyTrack::Pdr => Ok(survey_log(l, &opts, &input, &cfg, args.survey_track)?.0),
+            }
+        };
         crate::radio_map::build(
             &site,
             &logs,
-            &opts,
+            &load,
             args.radio_map_config.as_deref(),
             rm,
             args.radio_map_report.as_deref(),
@@ -514,4 +597,72 @@ fn nearest_non_wall(map: &FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
         }
     }
     best.map(|(_, q)| q)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fpbp_core::engine::replay::ReplayOutput;
+    use fpbp_core::engine::{Pose, PoseSource};
+    use fpbp_core::events::BleObservation;
+
+    fn truth(t_s: i64, x: f64) -> LogEvent {
+        LogEvent::Truth(TruthPoint {
+            t_ns: t_s * 1_000_000_000,
+            x_m: x,
+            y_m: 0.0,
+            floor: Some(1),
+        })
+    }
+
+    fn ble(t_s: i64) -> LogEvent {
+        LogEvent::Ble(BleObservation {
+            t_ns: t_s * 1_000_000_000,
+            beacon_id: "mac:AA:BB:CC:DD:EE:FF".into(),
+            rssi_dbm: -70.0,
+            tx_power_dbm: None,
+        })
+    }
+
+    #[test]
+    fn shaped_truth_is_merged_into_the_events_in_time_order() {
+        // the walker stood 5 s at x 0, then walked to x 10 in 5 s; the PDR
+        // (1.6 times short) saw the same
+        let events = vec![truth(0, 0.0), ble(2), ble(6), ble(8), truth(10, 10.0), ble(11)];
+        let track = (0..=10)
+            .map(|s| Pose {
+                t_ns: s * 1_000_000_000,
+                x_m: 1.25 * (s - 5).max(0) as f64,
+                y_m: 0.0,
+                floor: 1,
+                heading_rad: 0.0,
+                accuracy_m: 1.0,
+                floor_prob: 1.0,
+                source: PoseSource::DeadReckoning,
+            })
+            .collect();
+        let run = LogRun {
+            log: "x".into(),
+            init: None,
+            out: ReplayOutput {
+                track,
+                ..Default::default()
+            },
+        };
+        let (out, c) = shaped_events(events, &run);
+        assert_eq!((c.shaped, c.added), (1, 9));
+        assert!(out.windows(2).all(|w| w[0].t_ns() <= w[1].t_ns()));
+        assert_eq!(out.iter().filter(|e| matches!(e, LogEvent::Ble(_))).count(), 4);
+        let at = |t: i64| {
+            out.iter()
+                .find_map(|e| match e {
+                    LogEvent::Truth(p) if p.t_ns == t * 1_000_000_000 => Some(p.x_m),
+                    _ => None,
+                })
+                .expect("truth point")
+        };
+        assert_eq!(at(4), 0.0);
+        assert!((at(8) - 6.0).abs() < 1e-9);
+        assert_eq!(at(10), 10.0);
+    }
 }

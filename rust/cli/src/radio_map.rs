@@ -10,7 +10,7 @@ use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
-use fpbp_logs::ReadOptions;
+use fpbp_core::events::LogEvent;
 
 /// Builds the map of `logs` on `site` (its beacons and APs are the
 /// fallback), writes it to `out` (and the per-transmitter report to
@@ -18,7 +18,7 @@ use fpbp_logs::ReadOptions;
 pub fn build(
     site: &Site,
     logs: &[PathBuf],
-    opts: &ReadOptions,
+    load: &dyn Fn(&Path) -> Result<Vec<LogEvent>>,
     config: Option<&Path>,
     out: &Path,
     report: Option<&Path>,
@@ -39,7 +39,7 @@ pub fn build(
     for l in logs {
         bar.set_message(format!("radio map: reading {}", l.display()));
         bar.inc(1);
-        let events = crate::calibrate::load_events(l, opts)?;
+        let events = load(l)?;
         b.add_log(&events);
         scans.add_log(&events);
     }

@@ -17,6 +17,8 @@
 //!   or prior fallback far from the walks), built by [`radio_map_build`]
 //!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
 //!   [`radio_map_file`].
+//! - [`survey_track`]: the survey walker's position between truth points
+//!   shaped by its own PDR (`fpbp calibrate --survey-track pdr`).
 //! - [`reference_scans`]: the survey walks' scan vectors (fingerprints)
 //!   and their k-nearest-neighbour query, carried in the radio map file;
 //!   `tcpf` anchors its start and re-seeding on them.
@@ -30,6 +32,7 @@ pub mod radio_map_build;
 pub mod radio_map_file;
 pub mod reference_scans;
 pub mod survey;
+pub mod survey_track;
 pub mod window;
 
 pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};

@@ -413,7 +413,7 @@ pub struct RadioMap {
     pub(crate) site_name: String,
     pub(crate) tx: Vec<Transmitter>,
     pub(crate) entries: Vec<MapEntry>,
-    pub(crate) by_id: BTreeMap<(TxKind, String), usize>,
+    pub(crate) by_id: super::model::IdIndex,
     pub(crate) floor_rank: BTreeMap<i32, i32>,
     pub(crate) fallback: FallbackParams,
     /// The survey's scan vectors, when the map was built with them.
@@ -434,9 +434,9 @@ impl RadioMap {
         entries: Vec<MapEntry>,
         fallback: FallbackParams,
     ) -> Result<Self> {
-        let mut by_id = BTreeMap::new();
+        let mut by_id = super::model::IdIndex::default();
         for (i, t) in tx.iter().enumerate() {
-            if by_id.insert((t.kind, t.id.clone()), i).is_some() {
+            if !by_id.insert(t.kind, t.id.clone(), i) {
                 return Err(Error::Input(format!(
                     "radio map: transmitter `{}` appears twice",
                     crate::bounds::echo(&t.id)

@@ -810,7 +810,7 @@ mod tests {
         let now = 4_000_000_000;
         let from = now - 3_000_000_000;
         let mut acc: BTreeMap<u32, (f64, usize)> = BTreeMap::new();
-        for &(t, j, r) in reference.iter().filter(|r| r.0 > from && r.0 <= now) {
+        for &(_, j, r) in reference.iter().filter(|r| r.0 > from && r.0 <= now) {
             let e = acc.entry(j).or_insert((0.0, 0));
             e.0 += r;
             e.1 += 1;

@@ -30,16 +30,54 @@ pub struct Transmitter {
     pub model: PathLoss,
 }
 
+/// Transmitter indices by kind and canonical id, looked up by `&str`
+/// without allocating a key (one map per kind).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct IdIndex {
+    ble: BTreeMap<String, usize>,
+    wifi: BTreeMap<String, usize>,
+}
+
+impl IdIndex {
+    fn map(&self, kind: TxKind) -> &BTreeMap<String, usize> {
+        match kind {
+            TxKind::Ble => &self.ble,
+            TxKind::Wifi => &self.wifi,
+        }
+    }
+
+    /// The index of `id` of `kind`, as stored.
+    pub(crate) fn get(&self, kind: TxKind, id: &str) -> Option<usize> {
+        self.map(kind).get(id).copied()
+    }
+
+    pub(crate) fn contains(&self, kind: TxKind, id: &str) -> bool {
+        self.map(kind).contains_key(id)
+    }
+
+    /// Adds `id` of `kind` at `i`; false (and nothing changed) when it is
+    /// already there.
+    pub(crate) fn insert(&mut self, kind: TxKind, id: String, i: usize) -> bool {
+        let m = match kind {
+            TxKind::Ble => &mut self.ble,
+            TxKind::Wifi => &mut self.wifi,
+        };
+        match m.entry(id) {
+            std::collections::btree_map::Entry::Occupied(_) => false,
+            std::collections::btree_map::Entry::Vacant(v) => {
+                v.insert(i);
+                true
+            }
+        }
+    }
+}
+
 /// The index of `id` of `kind` in `by_id`, trying the id as given, then
 /// its canonical spelling (beacon ids normalised, BSSIDs lower-case): the
 /// lookup every [`RadioModel`] shares.
-pub(crate) fn lookup_in(
-    by_id: &BTreeMap<(TxKind, String), usize>,
-    kind: TxKind,
-    id: &str,
-) -> Option<usize> {
-    if let Some(i) = by_id.get(&(kind, id.to_string())) {
-        return Some(*i);
+pub(crate) fn lookup_in(by_id: &IdIndex, kind: TxKind, id: &str) -> Option<usize> {
+    if let Some(i) = by_id.get(kind, id) {
+        return Some(i);
     }
     let canon = match kind {
         TxKind::Ble => normalize_beacon_id(id).ok()?,
@@ -50,7 +88,7 @@ pub(crate) fn lookup_in(
             std::borrow::Cow::Owned(c) => c,
         },
     };
-    by_id.get(&(kind, canon)).copied()
+    by_id.get(kind, &canon)
 }
 
 /// The path-loss curve of `t` at a phone at `p`: the 3-D range (floored at
@@ -144,7 +182,7 @@ pub struct PathLossParams {
 #[derive(Debug, Clone)]
 pub struct PathLossModel {
     tx: Vec<Transmitter>,
-    by_id: BTreeMap<(TxKind, String), usize>,
+    by_id: IdIndex,
     /// Floor index (position in the site's floor list) by floor id: floors
     /// apart are counted by list position.
     floor_rank: BTreeMap<i32, i32>,
@@ -158,7 +196,7 @@ impl PathLossModel {
     pub fn for_site(site: &Site, params: PathLossParams) -> Self {
         let mut m = PathLossModel {
             tx: Vec::new(),
-            by_id: BTreeMap::new(),
+            by_id: IdIndex::default(),
             floor_rank: site
                 .spec
                 .floors
@@ -184,16 +222,14 @@ impl PathLossModel {
     pub fn from_transmitters(tx: Vec<Transmitter>, params: PathLossParams) -> Self {
         let mut m = PathLossModel {
             tx: Vec::new(),
-            by_id: BTreeMap::new(),
+            by_id: IdIndex::default(),
             floor_rank: BTreeMap::new(),
             params,
         };
         for t in tx {
-            if m.by_id.contains_key(&(t.kind, t.id.clone())) {
-                continue;
+            if m.by_id.insert(t.kind, t.id.clone(), m.tx.len()) {
+                m.tx.push(t);
             }
-            m.by_id.insert((t.kind, t.id.clone()), m.tx.len());
-            m.tx.push(t);
         }
         m
     }
@@ -203,10 +239,10 @@ impl PathLossModel {
             .iter()
             .all(|v| v.is_finite())
             && b.path_loss_exponent > 0.0;
-        if !ok || self.by_id.contains_key(&(kind, id.clone())) {
+        if !ok || self.by_id.contains(kind, &id) {
             return;
         }
-        self.by_id.insert((kind, id.clone()), self.tx.len());
+        self.by_id.insert(kind, id.clone(), self.tx.len());
         self.tx.push(Transmitter {
             id,
             kind,
@@ -354,9 +390,9 @@ mod tests {
 
     #[test]
     fn lookup_tries_the_canonical_spelling() {
-        let mut by_id = BTreeMap::new();
-        by_id.insert((TxKind::Wifi, "aa:bb:cc:dd:ee:0f".to_string()), 3);
-        by_id.insert((TxKind::Ble, "AA:BB:CC:DD:EE:0F".to_string()), 4);
+        let mut by_id = IdIndex::default();
+        by_id.insert(TxKind::Wifi, "aa:bb:cc:dd:ee:0f".to_string(), 3);
+        by_id.insert(TxKind::Ble, "AA:BB:CC:DD:EE:0F".to_string(), 4);
         assert_eq!(
             lookup_in(&by_id, TxKind::Wifi, "aa:bb:cc:dd:ee:0f"),
             Some(3)

@@ -156,12 +156,27 @@ impl<'a> GridSampler<'a> {
     /// [`TENTHS`] (the rare point off the grid or next to a hole settled
     /// as `sample` does).
     fn sample_many(&self, ps: &[Vec2], fast: &FastFallback, mean: &mut [f64], sd: &mut [f64]) {
+        self.sample_many_as(ps, fast, mean, sd, None);
+    }
+
+    /// [`GridSampler::sample_many`]; `table`: `Some(on)` forces the
+    /// corner table on or off (tests), `None` takes it when the points'
+    /// cells are few against the points (a particle cloud: [`CornerTable`]).
+    fn sample_many_as(
+        &self,
+        ps: &[Vec2],
+        fast: &FastFallback,
+        mean: &mut [f64],
+        sd: &mut [f64],
+        table: Option<bool>,
+    ) {
         let g = self.g;
         let n = ps.len().min(mean.len()).min(sd.len());
         let mut at = Vec::with_capacity(n);
         self.locate(&ps[..n], &mut at);
         let lerp = |a: f64, b: f64, t: f64| a + (b - a) * t;
         let mut off = Vec::new();
+        let corners = CornerTable::of(g, &at, table);
         for (i, a) in at.iter().enumerate() {
             if !a.inside {
                 off.push(i);
@@ -169,21 +184,16 @@ impl<'a> GridSampler<'a> {
             }
             // inside: i0 < nx and j0 < ny, so no index saturates
             let (i0, j0) = (a.i0 as usize, a.j0 as usize);
-            let (i1, j1) = ((i0 + 1).min(g.nx - 1), (j0 + 1).min(g.ny - 1));
-            let (r0, r1) = (j0 * g.nx, j1 * g.nx);
-            let ks = [r0 + i0, r0 + i1, r1 + i0, r1 + i1];
-            let mut x = [NO_VALUE; 8];
-            for (q, k) in ks.iter().enumerate() {
-                x[q] = g.mean_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
-                x[4 + q] = g.sd_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
-            }
-            if x.contains(&NO_VALUE) {
+            let c = match &corners {
+                Some(t) => t.get(i0, j0),
+                None => corner_tenths(g, i0, j0),
+            };
+            let Some(c) = c else {
                 (mean[i], sd[i]) = g
                     .at(a.u as usize, a.v as usize)
                     .unwrap_or_else(|| fast.at(ps[i]));
                 continue;
-            }
-            let c = tenths_8(x);
+            };
             mean[i] = lerp(lerp(c[0], c[1], a.tx), lerp(c[2], c[3], a.tx), a.ty);
             sd[i] = lerp(lerp(c[4], c[5], a.tx), lerp(c[6], c[7], a.tx), a.ty);
         }
@@ -222,6 +232,80 @@ impl<'a> GridSampler<'a> {
                     .map(|p| one((p.x - g.x0_m) / c, (p.y - g.y0_m) / c)),
             );
         }
+    }
+}
+
+/// The tenths of the four corners' means, then of their spreads, of the
+/// cell (`i0`, `j0`) of `g` (inside the grid) as [`Grid::sample`] blends
+/// them (`i0 + 1`, `j0 + 1` clamped to the grid); `None` when one of them
+/// has no value.
+#[inline(always)]
+fn corner_tenths(g: &Grid, i0: usize, j0: usize) -> Option<[f64; 8]> {
+    let (i1, j1) = ((i0 + 1).min(g.nx - 1), (j0 + 1).min(g.ny - 1));
+    let (r0, r1) = (j0 * g.nx, j1 * g.nx);
+    let ks = [r0 + i0, r0 + i1, r1 + i0, r1 + i1];
+    let mut x = [NO_VALUE; 8];
+    for (q, k) in ks.iter().enumerate() {
+        x[q] = g.mean_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
+        x[4 + q] = g.sd_dbm_x10.get(*k).copied().unwrap_or(NO_VALUE);
+    }
+    (!x.contains(&NO_VALUE)).then(|| tenths_8(x))
+}
+
+/// [`corner_tenths`] of every cell in the bounding box of the points'
+/// cells, computed once per call of [`GridSampler::sample_many`] when the
+/// box holds at most a quarter as many cells as there are points on the
+/// grid (a particle cloud spans a few cells: each cell's eight corners
+/// are read and converted once instead of once per particle). The same
+/// values as [`corner_tenths`] per point (unit test).
+struct CornerTable {
+    i_lo: usize,
+    j_lo: usize,
+    w: usize,
+    /// Row-major over the box; `None` where a corner has no value.
+    c: Vec<Option<[f64; 8]>>,
+}
+
+impl CornerTable {
+    fn of(g: &Grid, at: &[CellAt], force: Option<bool>) -> Option<Self> {
+        if force == Some(false) {
+            return None;
+        }
+        let (mut i_lo, mut i_hi, mut j_lo, mut j_hi) = (i64::MAX, i64::MIN, i64::MAX, i64::MIN);
+        let mut inside = 0usize;
+        for a in at.iter().filter(|a| a.inside) {
+            i_lo = i_lo.min(a.i0);
+            i_hi = i_hi.max(a.i0);
+            j_lo = j_lo.min(a.j0);
+            j_hi = j_hi.max(a.j0);
+            inside += 1;
+        }
+        if inside == 0 {
+            return None;
+        }
+        // inside points have 0 <= i0 < nx, 0 <= j0 < ny
+        let (i_lo, j_lo) = (i_lo as usize, j_lo as usize);
+        let (w, h) = (i_hi as usize - i_lo + 1, j_hi as usize - j_lo + 1);
+        let cells = w.saturating_mul(h);
+        if force.is_none() && cells.saturating_mul(4) > inside {
+            return None;
+        }
+        let mut c = Vec::with_capacity(cells);
+        for j in j_lo..j_lo + h {
+            for i in i_lo..i_lo + w {
+                c.push(corner_tenths(g, i, j));
+            }
+        }
+        Some(CornerTable { i_lo, j_lo, w, c })
+    }
+
+    /// The corners of cell (`i0`, `j0`), one of the box's.
+    #[inline(always)]
+    fn get(&self, i0: usize, j0: usize) -> Option<[f64; 8]> {
+        self.c
+            .get((j0 - self.j_lo) * self.w + (i0 - self.i_lo))
+            .copied()
+            .flatten()
     }
 }
 
@@ -329,7 +413,7 @@ pub struct RadioMap {
     pub(crate) site_name: String,
     pub(crate) tx: Vec<Transmitter>,
     pub(crate) entries: Vec<MapEntry>,
-    pub(crate) by_id: BTreeMap<(TxKind, String), usize>,
+    pub(crate) by_id: super::model::IdIndex,
     pub(crate) floor_rank: BTreeMap<i32, i32>,
     pub(crate) fallback: FallbackParams,
     /// The survey's scan vectors, when the map was built with them.
@@ -350,9 +434,9 @@ impl RadioMap {
         entries: Vec<MapEntry>,
         fallback: FallbackParams,
     ) -> Result<Self> {
-        let mut by_id = BTreeMap::new();
+        let mut by_id = super::model::IdIndex::default();
         for (i, t) in tx.iter().enumerate() {
-            if by_id.insert((t.kind, t.id.clone()), i).is_some() {
+            if !by_id.insert(t.kind, t.id.clone(), i) {
                 return Err(Error::Input(format!(
                     "radio map: transmitter `{}` appears twice",
                     crate::bounds::echo(&t.id)

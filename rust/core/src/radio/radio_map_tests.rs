@@ -436,7 +436,7 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
         }
         assert!(checked > 50_000, "{checked}");
         // the two passes against the per-point sample, else the fallback
-        let t = Transmitter {
+        let t_ = Transmitter {
             id: "t".into(),
             kind: TxKind::Wifi,
             floor: 0,
@@ -447,10 +447,25 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
                 exponent: 2.6,
             },
         };
-        for has_pathloss in [true, false] {
-            let fast = FastFallback::new(&t, has_pathloss, &FallbackParams::default(), 0);
+        // every point, and a cloud of a few cells (the corner table's
+        // case), with the table forced on, off, and chosen
+        let cloud: Vec<Vec2> = ps
+            .iter()
+            .copied()
+            .filter(|p| {
+                (p.x - x0_m - 0.4 * w).abs() < 2.5 * cell_m
+                    && (p.y - 7.25 - 0.5 * h).abs() < 2.0 * cell_m
+            })
+            .collect();
+        assert!(cloud.len() > 100, "{}", cloud.len());
+        for (has_pathloss, table, ps) in [true, false]
+            .into_iter()
+            .flat_map(|hp| [None, Some(true), Some(false)].map(move |t| (hp, t)))
+            .flat_map(|(hp, t)| [(hp, t, &ps), (hp, t, &cloud)])
+        {
+            let fast = FastFallback::new(&t_, has_pathloss, &FallbackParams::default(), 0);
             let (mut mean, mut sd) = (vec![0.0; ps.len()], vec![0.0; ps.len()]);
-            gs.sample_many(&ps, &fast, &mut mean, &mut sd);
+            gs.sample_many_as(ps, &fast, &mut mean, &mut sd, table);
             for (i, p) in ps.iter().enumerate() {
                 let (m, s) = g.sample(*p).unwrap_or_else(|| fast.at(*p));
                 assert_eq!(

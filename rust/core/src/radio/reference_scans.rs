@@ -220,7 +220,7 @@ pub struct ReferenceScans {
     cfg: ReferenceScanConfig,
     /// Transmitter ids (canonical beacon id / lower-case BSSID) and kinds.
     ids: Vec<(TxKind, String)>,
-    index: BTreeMap<(TxKind, String), u32>,
+    index: super::model::IdIndex,
     scans: Vec<ReferenceScan>,
     /// Per transmitter j, entries `post_start[j]..post_start[j + 1]` of
     /// `post_scan` / `post_r10`: (scan index, its RSSI x 10 dBm) of every
@@ -325,9 +325,9 @@ impl ReferenceScans {
                 return bad("tx", format!("index {j} is not below {} ids", ids.len()));
             }
         }
-        let mut index = BTreeMap::new();
+        let mut index = super::model::IdIndex::default();
         for (i, id) in ids.iter().enumerate() {
-            if index.insert(id.clone(), i as u32).is_some() {
+            if !index.insert(id.0, id.1.clone(), i) {
                 return Err(Error::Input(format!(
                     "radio map: field `reference_scans.ids[{i}]`: `{}` is listed twice",
                     id.1
@@ -412,7 +412,7 @@ impl ReferenceScans {
     /// [`crate::ble::beacon_id::normalize_beacon_id`] gives them, BSSIDs
     /// lower-case).
     pub fn index_of(&self, kind: TxKind, canonical_id: &str) -> Option<u32> {
-        self.index.get(&(kind, canonical_id.to_string())).copied()
+        self.index.get(kind, canonical_id).map(|j| j as u32)
     }
 
     /// Kind of transmitter `j`.
@@ -763,23 +763,69 @@ impl ScanTrail {
         while self.readings.front().is_some_and(|r| r.0 <= from) {
             self.readings.pop_front();
         }
-        let mut acc: BTreeMap<u32, (f64, usize)> = BTreeMap::new();
-        for &(t, j, r) in &self.readings {
-            if t <= now_ns {
-                let e = acc.entry(j).or_insert((0.0, 0));
-                e.0 += r;
-                e.1 += 1;
+        // by transmitter, each one's readings in the trail's order (a
+        // stable sort), summed in that order
+        let mut rs: Vec<(u32, f64)> = self
+            .readings
+            .iter()
+            .filter(|r| r.0 <= now_ns)
+            .map(|&(_, j, r)| (j, r))
+            .collect();
+        rs.sort_by_key(|r| r.0);
+        let mut out: Vec<(u32, f64)> = Vec::new();
+        let mut k = 0;
+        while k < rs.len() {
+            let j = rs[k].0;
+            let (mut s, mut n) = (0.0, 0usize);
+            while k < rs.len() && rs[k].0 == j {
+                s += rs[k].1;
+                n += 1;
+                k += 1;
             }
+            out.push((j, s / n as f64 - offset_db));
         }
-        acc.into_iter()
-            .map(|(j, (s, n))| (j, s / n as f64 - offset_db))
-            .collect()
+        out
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_trail_vector_is_the_per_transmitter_mean_bit_for_bit() {
+        // the BTreeMap accumulation it replaced, on readings out of index
+        // order, repeated, some after `now`
+        let mut trail = ScanTrail::default();
+        let mut reference = Vec::new();
+        for k in 0..500u32 {
+            let (t, j, r) = (
+                i64::from(k) * 10_000_000,
+                (k * 7919) % 37,
+                -40.0 - f64::from((k * 131) % 613) / 9.7,
+            );
+            trail.push(t, j, r);
+            reference.push((t, j, r));
+        }
+        let now = 4_000_000_000;
+        let from = now - 3_000_000_000;
+        let mut acc: BTreeMap<u32, (f64, usize)> = BTreeMap::new();
+        for &(_, j, r) in reference.iter().filter(|r| r.0 > from && r.0 <= now) {
+            let e = acc.entry(j).or_insert((0.0, 0));
+            e.0 += r;
+            e.1 += 1;
+        }
+        let want: Vec<(u32, u64)> = acc
+            .into_iter()
+            .map(|(j, (s, n))| (j, (s / n as f64 - 1.3).to_bits()))
+            .collect();
+        let got: Vec<(u32, u64)> = trail
+            .vector(now, 3.0, 1.3)
+            .into_iter()
+            .map(|(j, v)| (j, v.to_bits()))
+            .collect();
+        assert_eq!(got, want);
+    }
     use crate::events::{BleObservation, TruthPoint, WifiResult, WifiScan};
 
     fn set(scans: Vec<ReferenceScan>, n_ids: usize) -> ReferenceScans {

@@ -137,7 +137,12 @@ impl FreshResults {
             if last.is_some_and(|l| r.seen_t_ns <= l.saturating_add(REPEAT_TOLERANCE_NS)) {
                 continue;
             }
-            self.last_seen_ns.insert(r.bssid.clone(), r.seen_t_ns);
+            match self.last_seen_ns.get_mut(&r.bssid) {
+                Some(l) => *l = r.seen_t_ns,
+                None => {
+                    self.last_seen_ns.insert(r.bssid.clone(), r.seen_t_ns);
+                }
+            }
             out.push(r);
         }
         out

@@ -144,6 +144,13 @@ pub struct AnchorConfig {
     /// transmitter, the cloud is not re-seeded from the likelihood surface
     /// (there the radio map is its own extrapolation). 0 = off.
     pub far_db: f64,
+    /// A query whose closest reference scan is more than this (RMS dB)
+    /// from the phone's window gives no anchors: its candidates are the
+    /// least bad of scans that share almost nothing with the phone's (a
+    /// place the survey never went), so they neither shape the start
+    /// (which then does not wait for them) nor weigh the particles, vote
+    /// the floor or widen the accuracy radius. 0 = off.
+    pub drop_far_db: f64,
     /// Re-seeding: when the cloud's support (its weighted mean of the
     /// mixture over the mixture's peak) stays below `reseed_support` for
     /// `reseed_after` radio updates, `reseed_fraction` of the particles
@@ -181,6 +188,7 @@ impl Default for AnchorConfig {
             floor_force_votes: 5,
             start_wait_s: 5.0,
             far_db: 12.0,
+            drop_far_db: 0.0,
             reseed_support: 0.1,
             reseed_after: 3,
             reseed_fraction: 0.0,
@@ -211,6 +219,7 @@ impl AnchorConfig {
             ("start_weight", self.start_weight, 0.0, 100.0),
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
             ("far_db", self.far_db, 0.0, 1000.0),
+            ("drop_far_db", self.drop_far_db, 0.0, 1000.0),
             ("floor_vote_share", self.floor_vote_share, 0.0, 1.0),
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),

@@ -95,6 +95,9 @@ pub struct TcpfCounts {
     /// Re-seedings not done: the phone far from the survey
     /// (`anchors.far_db`).
     pub reseed_far: u64,
+    /// Anchor queries whose candidates were dropped as too far from the
+    /// phone's window (`anchors.drop_far_db`).
+    pub anchors_dropped_far: u64,
 }
 
 /// One candidate place of the reference-scan query, with its weight
@@ -284,6 +287,9 @@ pub struct TcpfEngine {
     /// RSSI distance of the closest reference scan at the last anchor
     /// query (`None`: no scan shares a heard transmitter, or no query).
     survey_dist_db: Option<f64>,
+    /// The last query's candidates were dropped as too far from the
+    /// phone's window (`anchors.drop_far_db`).
+    anchors_dropped_far: bool,
     /// Consecutive anchor floor votes for another floor.
     anchor_floor_run: Option<(i32, u32)>,
     /// Last time each model transmitter was heard (cached WiFi results
@@ -409,6 +415,7 @@ impl TcpfEngine {
             anchor_mean: None,
             anchor_buf: Vec::new(),
             survey_dist_db: None,
+            anchors_dropped_far: false,
             last_heard: vec![i64::MIN; model.transmitters().len()],
             ble_active: false,
             wifi_active: false,
@@ -990,6 +997,13 @@ impl TcpfEngine {
         }
         let out = scans.weighted_query(&q, ac.k, ac.tau(), ac.metric);
         self.survey_dist_db = out.first().map(|a| a.dist_db);
+        self.anchors_dropped_far =
+            ac.drop_far_db > 0.0 && self.survey_dist_db.is_some_and(|d| d > ac.drop_far_db);
+        if self.anchors_dropped_far {
+            self.counts.anchors_dropped_far += 1;
+            self.anchor_mean = None;
+            return Vec::new();
+        }
         if out.is_empty() {
             return out;
         }
@@ -1335,6 +1349,7 @@ impl TcpfEngine {
                 let first = *self.first_radio_t_ns.get_or_insert(t_ns);
                 let anchor_wait_ns = (self.cfg.anchors.start_wait_s * 1e9) as i64;
                 if anchors.is_empty()
+                    && !self.anchors_dropped_far
                     && self.cfg.anchors.k > 0
                     && self.model.reference_scans().is_some()
                     && t_ns - first < anchor_wait_ns

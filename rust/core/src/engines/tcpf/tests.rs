@@ -485,3 +485,31 @@ fn the_cell_cache_gives_the_models_values() {
         }
     }
 }
+
+/// A scan window that matches no reference scan (the survey's scans 30
+/// dB louder than anything heard: a place the survey never went) gives
+/// no anchors with `drop_far_db` 15 (off by default): none weigh the
+/// particles or place the start, and the start does not wait for them.
+/// Near the survey, and with the switch off, the anchors stay.
+#[test]
+fn candidates_far_from_the_phones_window_are_dropped() {
+    let ev = walk_north(30, None);
+    let run_with = |shift_db: f64, drop_far_db: f64| {
+        let (site, map) = site_with_scans(1, 0, shift_db);
+        let mut cfg = EngineConfig::default();
+        cfg.tcpf.anchors.drop_far_db = drop_far_db;
+        let mut e = TcpfEngine::with_model(site, &cfg, None, map).unwrap();
+        let out = replay(&mut e, ev.iter().cloned());
+        let first = out.track.first().map(|p| p.t_ns).unwrap();
+        (first, e.counts.anchor_queries, e.counts.anchors_dropped_far)
+    };
+    assert_eq!(EngineConfig::default().tcpf.anchors.drop_far_db, 0.0);
+    let (_, near_q, near_dropped) = run_with(0.0, 15.0);
+    assert!(near_q > 0 && near_dropped == 0, "{near_q} {near_dropped}");
+    let (far_first, far_q, far_dropped) = run_with(30.0, 15.0);
+    assert!(far_q == 0 && far_dropped > 0, "{far_q} {far_dropped}");
+    let (kept_first, kept_q, kept_dropped) = run_with(30.0, 0.0);
+    assert!(kept_q > 0 && kept_dropped == 0, "{kept_q} {kept_dropped}");
+    // the start waits for no anchor: as early as with the far ones kept
+    assert!(far_first <= kept_first, "{far_first} {kept_first}");
+}

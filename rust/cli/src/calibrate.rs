@@ -628,7 +628,14 @@ mod tests {
     fn shaped_truth_is_merged_into_the_events_in_time_order() {
         // the walker stood 5 s at x 0, then walked to x 10 in 5 s; the PDR
         // (1.6 times short) saw the same
-        let events = vec![truth(0, 0.0), ble(2), ble(6), ble(8), truth(10, 10.0), ble(11)];
+        let events = vec![
+            truth(0, 0.0),
+            ble(2),
+            ble(6),
+            ble(8),
+            truth(10, 10.0),
+            ble(11),
+        ];
         let track = (0..=10)
             .map(|s| Pose {
                 t_ns: s * 1_000_000_000,
@@ -652,7 +659,10 @@ mod tests {
         let (out, c) = shaped_events(events, &run);
         assert_eq!((c.shaped, c.added), (1, 9));
         assert!(out.windows(2).all(|w| w[0].t_ns() <= w[1].t_ns()));
-        assert_eq!(out.iter().filter(|e| matches!(e, LogEvent::Ble(_))).count(), 4);
+        assert_eq!(
+            out.iter().filter(|e| matches!(e, LogEvent::Ble(_))).count(),
+            4
+        );
         let at = |t: i64| {
             out.iter()
                 .find_map(|e| match e {

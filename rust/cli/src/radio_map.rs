@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result};
+use fpbp_core::events::LogEvent;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
-use fpbp_core::events::LogEvent;
 
 /// Builds the map of `logs` on `site` (its beacons and APs are the
 /// fallback), writes it to `out` (and the per-transmitter report to

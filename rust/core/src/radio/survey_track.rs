@@ -165,7 +165,10 @@ mod tests {
         let track: Vec<(i64, Vec2)> = (0..=10)
             .map(|s| {
                 let t = s as f64;
-                ((t * 1e9) as i64, rotate(walk(t), 0.17) * 0.8 + Vec2::new(3.0, -2.0))
+                (
+                    (t * 1e9) as i64,
+                    rotate(walk(t), 0.17) * 0.8 + Vec2::new(3.0, -2.0),
+                )
             })
             .collect();
         let (out, c) = pdr_shaped_truth(&truth, &track, &ShapeLimits::default());

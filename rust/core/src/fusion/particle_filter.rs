@@ -580,6 +580,32 @@ impl ParticleFilter {
         Some(s)
     }
 
+    /// Weighted geometric median of the particles (the point with the least
+    /// weighted sum of distances: the estimate with the least expected
+    /// error in metres), by `iters` Weiszfeld steps from the weighted mean.
+    /// Distances are floored at 1 cm so a step never divides by zero.
+    pub fn geometric_median(&self, iters: usize) -> Option<Vec2> {
+        let mut x = self.mean()?;
+        for _ in 0..iters {
+            let (mut s, mut wsum) = (Vec2::zeros(), 0.0);
+            for (p, w) in self.particles.iter().zip(&self.weights) {
+                let k = w / (p - x).norm().max(0.01);
+                s += p * k;
+                wsum += k;
+            }
+            if wsum.is_nan() || wsum <= 0.0 {
+                break;
+            }
+            let next = s / wsum;
+            let moved = (next - x).norm();
+            x = next;
+            if moved < 1e-3 {
+                break;
+            }
+        }
+        Some(x)
+    }
+
     /// Root-mean-square distance of the particles from their weighted mean, metres.
     pub fn spread_m(&self) -> f64 {
         let Some(m) = self.mean() else { return 0.0 };
@@ -1499,6 +1525,26 @@ mod tests {
         assert_eq!(pf.particles(), again.particles());
         assert_eq!(pf.inject(0.0, c, 1.0, |_| true), 0);
         assert_eq!(pf.inject(0.5, c, 1.0, |_| false), 0);
+    }
+
+    #[test]
+    fn geometric_median_stays_with_the_heavier_place() {
+        // 7 particles at the origin, 3 at 10 m: the mean lies between
+        // them, the median with the seven
+        let mut pf = filter(10, Resampling::Systematic, 1);
+        pf.init_at(Vec2::new(0.0, 0.0), 0.0, |_| true);
+        for p in pf.particles.iter_mut().skip(7) {
+            *p = Vec2::new(10.0, 0.0);
+        }
+        let mean = pf.mean().unwrap();
+        assert!((mean - Vec2::new(3.0, 0.0)).norm() < 1e-9, "{mean:?}");
+        assert_eq!(pf.geometric_median(0), Some(mean));
+        let med = pf.geometric_median(50).unwrap();
+        assert!(med.norm() < 0.1, "{med:?}");
+        // one place: the median is the place
+        pf.init_at(Vec2::new(2.0, -1.0), 0.0, |_| true);
+        let one = pf.geometric_median(50).unwrap();
+        assert!((one - Vec2::new(2.0, -1.0)).norm() < 1e-9);
     }
 
     #[test]

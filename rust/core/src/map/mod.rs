@@ -255,6 +255,37 @@ impl FloorMap {
         Some(self.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5)))
     }
 
+    /// The Walkable pixel centre nearest to `p` within `radius_m` (`p`
+    /// itself when it is Walkable); None when there is none. Cost: the
+    /// pixels of the square around `p` (radius capped at 50 m).
+    pub fn nearest_walkable_within(&self, p: Vec2, radius_m: f64) -> Option<Vec2> {
+        if self.is_walkable(p) {
+            return Some(p);
+        }
+        if !(radius_m > 0.0) || !p.x.is_finite() || !p.y.is_finite() {
+            return None;
+        }
+        let q = self.mcs_to_ics(p);
+        let r_px = radius_m.min(50.0) * self.pixels_per_meter;
+        let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
+        let (i0, i1) = (clamp(q.x - r_px, self.width_px), clamp(q.x + r_px + 1.0, self.width_px));
+        let (j0, j1) = (clamp(q.y - r_px, self.height_px), clamp(q.y + r_px + 1.0, self.height_px));
+        let mut best: Option<(f64, usize, usize)> = None;
+        for j in j0..j1 {
+            for i in i0..i1 {
+                if self.features[j * self.width_px + i] != Feature::Walkable {
+                    continue;
+                }
+                let (dx, dy) = (i as f64 + 0.5 - q.x, j as f64 + 0.5 - q.y);
+                let d2 = dx * dx + dy * dy;
+                if d2 <= r_px * r_px && best.is_none_or(|(b, _, _)| d2 < b) {
+                    best = Some((d2, i, j));
+                }
+            }
+        }
+        best.map(|(_, i, j)| self.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5)))
+    }
+
     /// The GML grid G (Sec. IV-A4): Walkable cell centres at interval I_M.
     pub fn grid(&self) -> &[Vec2] {
         &self.grid

@@ -293,3 +293,26 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn nearest_walkable_within_finds_the_closest_pixel_or_none() {
+    let m = two_rooms();
+    // a walkable point is itself
+    assert_eq!(m.nearest_walkable_within(v(5.5, 5.5), 3.0), Some(v(5.5, 5.5)));
+    // in the 2-px wall (x in [10, 12)), off the door rows: the nearest
+    // walkable pixel centre is the one left of it (x 9.5) or right (12.5)
+    let p = m.nearest_walkable_within(v(10.4, 8.5), 3.0).unwrap();
+    assert!(m.is_walkable(p));
+    assert!((p - v(9.5, 8.5)).norm() < 1e-9, "{p:?}");
+    let q = m.nearest_walkable_within(v(11.7, 8.5), 3.0).unwrap();
+    assert!((q - v(12.5, 8.5)).norm() < 1e-9, "{q:?}");
+    // too small a radius, a zero radius, NaN, far outside: none
+    assert_eq!(m.nearest_walkable_within(v(10.4, 8.5), 0.5), None);
+    assert_eq!(m.nearest_walkable_within(v(10.4, 8.5), 0.0), None);
+    assert_eq!(m.nearest_walkable_within(v(f64::NAN, 8.5), 3.0), None);
+    assert_eq!(m.nearest_walkable_within(v(500.0, -500.0), 3.0), None);
+    // just outside the plan: the border is wall, the first walkable
+    // pixel is 1.5 m in
+    assert_eq!(m.nearest_walkable_within(v(-0.5, 5.5), 1.5), None);
+    assert!(m.nearest_walkable_within(v(-0.5, 5.5), 2.5).is_some());
+}

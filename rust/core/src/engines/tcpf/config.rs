@@ -63,6 +63,13 @@ pub struct TcpfConfig {
     /// Without a barometer, a floor change needs this many consecutive
     /// radio updates voting for the other floor.
     pub floor_switch_votes: u32,
+    /// A floor change puts the cloud at the track's point on the new
+    /// floor, or at the nearest walkable point within this many metres.
+    pub floor_snap_m: f64,
+    /// With no walkable point there, a change the barometer alone asks for
+    /// is not made (the walker passes through a place the plan lacks);
+    /// false: a global start on the new floor.
+    pub floor_keep_off_map: bool,
     /// The published point is held (not moved through a wall) for at most
     /// this many fusion runs before it follows the cloud anyway.
     pub max_hold_runs: u32,
@@ -81,6 +88,11 @@ pub struct TcpfConfig {
     /// the heaviest 3 x 3 block of `mode_bin_m` squares (the cloud's main
     /// mode); 0 = the weighted mean of all particles.
     pub mode_bin_m: f64,
+    /// With `mode_bin_m` 0: the published point is the particles' weighted
+    /// geometric median after this many Weiszfeld steps from the weighted
+    /// mean (the least expected error in metres of a cloud split over two
+    /// places); 0 = the weighted mean.
+    pub median_iters: usize,
     pub accuracy_scale: f64,
     pub accuracy_min_m: f64,
     /// Converged cloud, weaker radio: the tempered log-likelihood is
@@ -165,6 +177,12 @@ pub struct AnchorConfig {
     /// quadrature (a track the fingerprints disagree with is less sure
     /// than its cloud says; 0 = the cloud alone).
     pub accuracy_share: f64,
+    /// Accuracy radius: plus this many metres per dB of RMS RSSI
+    /// difference between the phone's window and the closest reference
+    /// scan beyond `accuracy_free_db`, in quadrature (the survey never
+    /// went where the phone hears this; 0 = off).
+    pub accuracy_per_db_m: f64,
+    pub accuracy_free_db: f64,
     /// How the query ranks and weighs the reference scans
     /// (`rms_db` or `bray_curtis_powed`).
     pub metric: ScanMetric,
@@ -194,6 +212,8 @@ impl Default for AnchorConfig {
             reseed_fraction: 0.0,
             use_offset: true,
             accuracy_share: 0.5,
+            accuracy_per_db_m: 0.0,
+            accuracy_free_db: 6.0,
             metric: ScanMetric::BrayCurtisPowed,
             tau_powed: 0.2,
         }
@@ -224,6 +244,8 @@ impl AnchorConfig {
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 10.0),
+            ("accuracy_per_db_m", self.accuracy_per_db_m, 0.0, 100.0),
+            ("accuracy_free_db", self.accuracy_free_db, 0.0, 200.0),
             ("tau_powed", self.tau_powed, 1e-4, 10.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
@@ -266,10 +288,13 @@ impl Default for TcpfConfig {
             recovery_radio_alone_margin: 20.0,
             recovery_check_every: 0,
             floor_switch_votes: 3,
+            floor_snap_m: 5.0,
+            floor_keep_off_map: true,
             max_hold_runs: 5,
             hold_max_accuracy_m: 30.0,
             accuracy_quantile: 0.68,
             mode_bin_m: 0.0,
+            median_iters: 0,
             accuracy_scale: 2.5,
             accuracy_min_m: 3.0,
             converged_radio_scale: 1.0,
@@ -292,6 +317,12 @@ impl TcpfConfig {
             return Err(crate::Error::config(
                 "tcpf.particle_count",
                 format!("must be in 1..=100000, got {}", self.particle_count),
+            ));
+        }
+        if self.median_iters > 1000 {
+            return Err(crate::Error::config(
+                "tcpf.median_iters",
+                format!("must be in 0..=1000, got {}", self.median_iters),
             ));
         }
         for (f, v, lo, hi) in [
@@ -342,6 +373,7 @@ impl TcpfConfig {
                 1.0,
             ),
             ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
+            ("floor_snap_m", self.floor_snap_m, 0.0, 50.0),
             ("mode_bin_m", self.mode_bin_m, 0.0, 100.0),
             ("hold_max_accuracy_m", self.hold_max_accuracy_m, 0.0, 1e6),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),

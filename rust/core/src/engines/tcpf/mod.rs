@@ -88,6 +88,10 @@ pub struct TcpfCounts {
     pub walked: u64,
     pub jumps: u64,
     pub floor_changes: u64,
+    /// Barometer floor changes not made: the new floor's plan has no
+    /// walkable point within `floor_snap_m` of the track (a stairwell the
+    /// plan lacks, passed through; `floor_keep_off_map`).
+    pub floor_changes_off_map: u64,
     /// Anchor queries that gave candidates, and particles re-seeded
     /// around them.
     pub anchor_queries: u64,
@@ -328,6 +332,10 @@ pub struct TcpfEngine {
     kill_ema: f64,
     heading_rad: f64,
     pose: Option<Pose>,
+    /// The last pose's accuracy radius from the cloud and the anchors
+    /// alone (without the survey-distance term): what `hold_max_accuracy_m`
+    /// compares.
+    cloud_accuracy_m: Option<f64>,
     last_radio_t_ns: Option<i64>,
     /// Last random walk of the per-particle offsets.
     last_offset_walk_t_ns: Option<i64>,
@@ -437,6 +445,7 @@ impl TcpfEngine {
             kill_ema: 0.0,
             heading_rad: 0.0,
             pose: None,
+            cloud_accuracy_m: None,
             last_radio_t_ns: None,
             last_offset_walk_t_ns: None,
             first_radio_t_ns: None,
@@ -1034,6 +1043,7 @@ impl TcpfEngine {
             (Some(v), _) => Some((v, 1)),
             (None, run) => run,
         };
+        let mut from_barometer = false;
         let target = if self.floors.has_pressure() {
             match self.anchor_floor_run {
                 Some((v, n)) if force > 0 && n >= force => {
@@ -1042,7 +1052,10 @@ impl TcpfEngine {
                     self.floors.reset_to_floor(v);
                     Some(v)
                 }
-                _ => self.floors.floor(),
+                _ => {
+                    from_barometer = true;
+                    self.floors.floor()
+                }
             }
         } else {
             match (vote, self.other_floor) {
@@ -1064,23 +1077,33 @@ impl TcpfEngine {
         let Some(f) = target.filter(|f| *f != self.floor && self.site.floor(*f).is_some()) else {
             return;
         };
+        // floors share the x, y frame: the walker changes floor where the
+        // track is (stairs, lift), or at the nearest walkable point within
+        // `floor_snap_m` (a stairwell drawn as a wall); with none there, a
+        // change the barometer alone asks for is not made when
+        // `floor_keep_off_map` (the plan lacks the place the walker passes
+        // through: a global start on that floor would put the track
+        // wherever its plan has room), otherwise a global start there
+        let at = self.published.or_else(|| self.pf.mean());
+        let site = Arc::clone(&self.site);
+        let Some(m) = site.floor(f) else { return };
+        let snapped = at.and_then(|p| m.nearest_walkable_within(p, self.cfg.floor_snap_m));
+        if snapped.is_none() && at.is_some() && from_barometer && self.cfg.floor_keep_off_map {
+            self.counts.floor_changes_off_map += 1;
+            return;
+        }
         self.counts.floor_changes += 1;
         self.other_floor = None;
         self.anchor_floor_run = None;
-        // floors share the x, y frame: the walker changes floor where the
-        // track is (stairs, lift); if that point is not walkable there,
-        // a global start on the new floor
-        let at = self.published.or_else(|| self.pf.mean());
-        let site = Arc::clone(&self.site);
-        match (at, site.floor(f)) {
-            (Some(p), Some(m)) if m.is_walkable(p) => {
+        match snapped {
+            Some(p) => {
                 self.floor = f;
                 self.pf.init_at(p, 3.0, |q| m.is_walkable(q));
                 self.draw_offsets_from_belief();
                 self.monitor.reset();
                 self.published = Some(p);
             }
-            _ => {
+            None => {
                 self.global_start(t_ns, meas, &[], &[], Some(f));
             }
         }
@@ -1120,6 +1143,8 @@ impl TcpfEngine {
     fn estimate(&mut self) -> Option<Vec2> {
         let mean = if self.cfg.mode_bin_m > 0.0 {
             self.mode_mean(self.cfg.mode_bin_m)?
+        } else if self.cfg.median_iters > 0 {
+            self.pf.geometric_median(self.cfg.median_iters)?
         } else {
             self.pf.mean()?
         };
@@ -1143,8 +1168,8 @@ impl TcpfEngine {
         };
         let broad = self.cfg.hold_max_accuracy_m > 0.0
             && self
-                .pose
-                .is_some_and(|p| p.accuracy_m > self.cfg.hold_max_accuracy_m);
+                .cloud_accuracy_m
+                .is_some_and(|a| a > self.cfg.hold_max_accuracy_m);
         let ok = |q: Vec2| map.is_walkable(q) && !map.track_crosses_wall(prev, q);
         if ok(mean) {
             self.hold_runs = 0;
@@ -1247,6 +1272,21 @@ impl TcpfEngine {
         }
     }
 
+    /// The published radius: `cloud_m` widened by `anchors.accuracy_per_db_m`
+    /// per dB of RSSI distance from the closest reference scan beyond
+    /// `anchors.accuracy_free_db` (in quadrature): a window far, in RSSI,
+    /// from every survey scan was heard where the survey never went, and
+    /// the radio there is extrapolated.
+    fn accuracy_with_survey(&self, cloud_m: f64) -> f64 {
+        let ac = &self.cfg.anchors;
+        match self.survey_dist_db {
+            Some(d) if ac.accuracy_per_db_m > 0.0 && d > ac.accuracy_free_db => {
+                cloud_m.hypot(ac.accuracy_per_db_m * (d - ac.accuracy_free_db))
+            }
+            _ => cloud_m,
+        }
+    }
+
     fn publish(&mut self, t_ns: i64) {
         let Some(pos) = self.estimate() else { return };
         if let Some(prev) = self.published {
@@ -1268,13 +1308,15 @@ impl TcpfEngine {
         } else {
             0.9
         };
+        let cloud_m = self.accuracy_with_anchors(pos);
+        self.cloud_accuracy_m = Some(cloud_m);
         self.pose = Some(Pose {
             t_ns,
             x_m: pos.x,
             y_m: pos.y,
             floor: self.floor,
             heading_rad: self.heading_rad,
-            accuracy_m: self.accuracy_with_anchors(pos),
+            accuracy_m: self.accuracy_with_survey(cloud_m),
             floor_prob,
             source,
         });

@@ -320,6 +320,61 @@ fn anchors_move_a_wrong_start_floor_against_a_level_barometer() {
     assert_eq!(own.track.first().map(|p| p.floor), Some(1));
 }
 
+/// Floor 1 of a two-floor site is walkable only east of x = 16 m; the
+/// walker climbs 5 m (barometer) 10 s into the walk north along x = 7 m.
+/// The plan has no floor-1 place within `floor_snap_m` of the track: the
+/// change is not made (`floor_keep_off_map`) and the track stays on its
+/// line, where a global start on floor 1 would move it 9+ m east.
+#[test]
+fn a_floor_change_off_the_new_floors_plan_is_not_made() {
+    use crate::map::Feature;
+    let (w, h) = (40usize, 80usize);
+    let mut f = vec![Feature::Wall; w * h];
+    for j in 0..h {
+        for i in 32..w {
+            f[j * w + i] = Feature::Walkable;
+        }
+    }
+    let east_only = crate::map::FloorMap::from_features(w, h, 2.0, f);
+    let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
+    let site =
+        crate::site::testkit::beacon_site("two-floors", vec![walled_map(), east_only], &bs, MODEL);
+    let mut ev = walk_north(30, None);
+    for i in 0..300 {
+        let climbed = (f64::from(i) / 10.0 - 10.0).clamp(0.0, 1.0);
+        ev.push(LogEvent::Sensor(SensorEvent {
+            t_ns: i64::from(i) * 100_000_000 + 1,
+            data: SensorData::Pressure(1000.0 - 0.6 * climbed),
+        }));
+    }
+    ev.sort_by_key(|e| e.t_ns());
+    let init = Some(InitialPosition {
+        x_m: 7.0,
+        y_m: 4.0,
+        floor: 0,
+        heading_rad: None,
+    });
+    let run_with = |keep: bool| {
+        let mut cfg = EngineConfig::default();
+        cfg.tcpf.floor_keep_off_map = keep;
+        let mut e = TcpfEngine::new(site.clone(), &cfg, init).unwrap();
+        let out = replay(&mut e, ev.iter().cloned());
+        (out, e.counts.floor_changes, e.counts.floor_changes_off_map)
+    };
+    let (kept, changes, refused) = run_with(true);
+    assert_eq!(changes, 0);
+    assert!(refused > 0);
+    assert!(kept.track.iter().all(|p| p.floor == 0));
+    let max_x = kept.track.iter().map(|p| p.x_m).fold(f64::MIN, f64::max);
+    assert!(max_x < 10.0, "{max_x:.1} m");
+    // the old way: a global start on floor 1, east of x = 16 m
+    let (moved, changes, refused) = run_with(false);
+    assert!(changes > 0 && refused == 0, "{changes} {refused}");
+    let last = moved.track.last().unwrap();
+    assert_eq!(last.floor, 1);
+    assert!(last.x_m >= 16.0, "{:.1} m", last.x_m);
+}
+
 #[test]
 fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     // the wrong start of `recovers_from_a_wrong_start_in_the_other_room`,
@@ -367,6 +422,7 @@ fn a_broad_pose_is_not_held_behind_a_wall() {
         e.start_at(BEHIND_THE_WALL_EAST);
         let prev = Vec2::new(10.0, 33.0);
         e.published = Some(prev);
+        e.cloud_accuracy_m = Some(accuracy_m);
         e.pose = Some(Pose {
             t_ns: 0,
             x_m: prev.x,
@@ -382,6 +438,47 @@ fn a_broad_pose_is_not_held_behind_a_wall() {
     };
     assert!(held_from(3.0), "a sharp pose is held at the wall");
     assert!(!held_from(hold + 1.0), "a broad pose is not held");
+}
+
+/// The survey-distance term widens the radius only beyond
+/// `anchors.accuracy_free_db`, by `accuracy_per_db_m` per dB in
+/// quadrature, and the hold still reads the cloud's own radius.
+#[test]
+fn a_window_far_from_the_survey_widens_the_radius() {
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.anchors.accuracy_free_db = 6.0;
+    cfg.tcpf.anchors.accuracy_per_db_m = 1.0;
+    let mut e = TcpfEngine::new(site(), &cfg, None).unwrap();
+    e.survey_dist_db = None;
+    assert_eq!(e.accuracy_with_survey(3.0), 3.0);
+    e.survey_dist_db = Some(5.0);
+    assert_eq!(e.accuracy_with_survey(3.0), 3.0);
+    e.survey_dist_db = Some(10.0);
+    assert!((e.accuracy_with_survey(3.0) - 5.0).abs() < 1e-12);
+    cfg.tcpf.anchors.accuracy_per_db_m = 0.0;
+    let mut off = TcpfEngine::new(site(), &cfg, None).unwrap();
+    off.survey_dist_db = Some(40.0);
+    assert_eq!(off.accuracy_with_survey(3.0), 3.0);
+    // end to end: scans 30 dB louder than anything heard put the phone
+    // far from the survey, and its radius is wider than beside the survey
+    let ev = walk_north(30, None);
+    let late_radius = |shift_db: f64| {
+        let (site, map) = site_with_scans(1, 0, shift_db);
+        let mut cfg = EngineConfig::default();
+        cfg.tcpf.anchors.accuracy_per_db_m = 1.0;
+        let mut e = TcpfEngine::with_model(site, &cfg, None, map).unwrap();
+        let out = replay(&mut e, ev.iter().cloned());
+        let late: Vec<f64> = out
+            .track
+            .iter()
+            .filter(|p| p.t_ns > 20_000_000_000)
+            .map(|p| p.accuracy_m)
+            .collect();
+        assert!(!late.is_empty());
+        late.iter().sum::<f64>() / late.len() as f64
+    };
+    let (near, far) = (late_radius(0.0), late_radius(30.0));
+    assert!(far > near + 10.0, "near {near:.1} m, far {far:.1} m");
 }
 
 /// A start east of the walled map's wall (x = 40-42 m).

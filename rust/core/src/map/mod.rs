@@ -262,14 +262,20 @@ impl FloorMap {
         if self.is_walkable(p) {
             return Some(p);
         }
-        if !(radius_m > 0.0) || !p.x.is_finite() || !p.y.is_finite() {
+        if radius_m.is_nan() || radius_m <= 0.0 || !p.x.is_finite() || !p.y.is_finite() {
             return None;
         }
         let q = self.mcs_to_ics(p);
         let r_px = radius_m.min(50.0) * self.pixels_per_meter;
         let clamp = |v: f64, n: usize| v.floor().clamp(0.0, n as f64) as usize;
-        let (i0, i1) = (clamp(q.x - r_px, self.width_px), clamp(q.x + r_px + 1.0, self.width_px));
-        let (j0, j1) = (clamp(q.y - r_px, self.height_px), clamp(q.y + r_px + 1.0, self.height_px));
+        let (i0, i1) = (
+            clamp(q.x - r_px, self.width_px),
+            clamp(q.x + r_px + 1.0, self.width_px),
+        );
+        let (j0, j1) = (
+            clamp(q.y - r_px, self.height_px),
+            clamp(q.y + r_px + 1.0, self.height_px),
+        );
         let mut best: Option<(f64, usize, usize)> = None;
         for j in j0..j1 {
             for i in i0..i1 {

@@ -298,7 +298,10 @@ proptest! {
 fn nearest_walkable_within_finds_the_closest_pixel_or_none() {
     let m = two_rooms();
     // a walkable point is itself
-    assert_eq!(m.nearest_walkable_within(v(5.5, 5.5), 3.0), Some(v(5.5, 5.5)));
+    assert_eq!(
+        m.nearest_walkable_within(v(5.5, 5.5), 3.0),
+        Some(v(5.5, 5.5))
+    );
     // in the 2-px wall (x in [10, 12)), off the door rows: the nearest
     // walkable pixel centre is the one left of it (x 9.5) or right (12.5)
     let p = m.nearest_walkable_within(v(10.4, 8.5), 3.0).unwrap();

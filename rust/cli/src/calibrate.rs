@@ -270,10 +270,8 @@ fn pdr_run(
 fn shaped_events(events: Vec<LogEvent>, run: &LogRun) -> (Vec<LogEvent>, ShapeCounts) {
     let truth: Vec<TruthPoint> = events
         .iter()
-        .filter_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        })
+        .filter_map(LogEvent::as_truth)
+        .copied()
         .collect();
     let track: Vec<(i64, Vec2)> = run
         .out

@@ -343,9 +343,7 @@ pub fn run(args: Args) -> Result<()> {
         bar.inc(1);
         let (events, segs, counts) = survey_log(l, &opts, &input, &cfg, args.survey_track)?;
         heading_segments.extend(segs);
-        shape.segments += counts.segments;
-        shape.shaped += counts.shaped;
-        shape.added += counts.added;
+        shape += counts;
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()

@@ -336,6 +336,9 @@ pub fn run(args: Args) -> Result<()> {
     let mut wifi_paths = Vec::new();
     let mut heading_segments = Vec::new();
     let mut shape = ShapeCounts::default();
+    // each log's events as the fits saw them (truth densified with
+    // `--survey-track pdr`), kept for the radio map: one PDR replay a log
+    let mut radio_map_logs = Vec::new();
     let input = crate::site_io::load_site(&args.site)?;
     let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
@@ -349,13 +352,16 @@ pub fn run(args: Args) -> Result<()> {
             ..Default::default()
         };
         let mut scans = Vec::new();
-        for e in events {
+        for e in &events {
             match e {
-                LogEvent::Ble(b) => p.observations.push(b),
-                LogEvent::Truth(t) => p.truth.push(t),
-                LogEvent::Wifi(w) if args.wifi => scans.push(w),
+                LogEvent::Ble(b) => p.observations.push(b.clone()),
+                LogEvent::Truth(t) => p.truth.push(*t),
+                LogEvent::Wifi(w) if args.wifi => scans.push(w.clone()),
                 _ => {}
             }
+        }
+        if args.radio_map.is_some() {
+            radio_map_logs.push((l.clone(), events));
         }
         if p.truth.len() < 2 {
             eprintln!("{}: fewer than 2 truth points, skipped", l.display());
@@ -436,16 +442,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(rm) = &args.radio_map {
         let site = crate::site_io::load_site(&args.out)?;
-        let load = |l: &Path| -> Result<Vec<LogEvent>> {
-            match args.survey_track {
-                SurveyTrack::Linear => load_events(l, &opts),
-                SurveyTrack::Pdr => Ok(survey_log(l, &opts, &input, &cfg, args.survey_track)?.0),
-            }
-        };
         crate::radio_map::build(
             &site,
-            &logs,
-            &load,
+            radio_map_logs,
             args.radio_map_config.as_deref(),
             rm,
             args.radio_map_report.as_deref(),

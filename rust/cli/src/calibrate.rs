@@ -361,6 +361,12 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
         if args.radio_map.is_some() {
+            // the map reads radio and truth only: the sensor samples (most
+            // of a log) are not kept across the logs
+            let mut events = events;
+            events
+                .retain(|e| matches!(e, LogEvent::Ble(_) | LogEvent::Wifi(_) | LogEvent::Truth(_)));
+            events.shrink_to_fit();
             radio_map_logs.push((l.clone(), events));
         }
         if p.truth.len() < 2 {

@@ -117,15 +117,15 @@ fn main() -> Result<()> {
                 let (base, cfg) = engine_config(name, seed);
                 let init = init_truth
                     .then(|| {
-                        log.events.iter().find_map(|e| match e {
-                            LogEvent::Truth(t) => Some(InitialPosition {
+                        log.events
+                            .iter()
+                            .find_map(LogEvent::as_truth)
+                            .map(|t| InitialPosition {
                                 x_m: t.x_m,
                                 y_m: t.y_m,
                                 floor: t.floor.unwrap_or(0),
                                 heading_rad: None,
-                            }),
-                            _ => None,
-                        })
+                            })
                     })
                     .flatten();
                 let mut e = build_engine(&base, site.clone(), &cfg, init)

@@ -151,10 +151,8 @@ fn run_dir(
 fn measure(name: &str, events: &[LogEvent], cfg: &PdrConfig) -> Result<Option<PathResult>> {
     let truth: Vec<TruthPoint> = events
         .iter()
-        .filter_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        })
+        .filter_map(LogEvent::as_truth)
+        .copied()
         .collect();
     let truth_len_m: f64 = truth
         .windows(2)

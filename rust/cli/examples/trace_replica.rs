@@ -82,10 +82,8 @@ fn main() -> Result<()> {
     let truth: Vec<TruthPoint> = sim
         .events
         .iter()
-        .filter_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        })
+        .filter_map(LogEvent::as_truth)
+        .copied()
         .collect();
     let init = truth_start.then(|| InitialPosition {
         x_m: truth[0].x_m,

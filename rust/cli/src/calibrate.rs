@@ -270,10 +270,8 @@ fn pdr_run(
 fn shaped_events(events: Vec<LogEvent>, run: &LogRun) -> (Vec<LogEvent>, ShapeCounts) {
     let truth: Vec<TruthPoint> = events
         .iter()
-        .filter_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        })
+        .filter_map(LogEvent::as_truth)
+        .copied()
         .collect();
     let track: Vec<(i64, Vec2)> = run
         .out
@@ -338,6 +336,9 @@ pub fn run(args: Args) -> Result<()> {
     let mut wifi_paths = Vec::new();
     let mut heading_segments = Vec::new();
     let mut shape = ShapeCounts::default();
+    // each log's events as the fits saw them (truth densified with
+    // `--survey-track pdr`), kept for the radio map: one PDR replay a log
+    let mut radio_map_logs = Vec::new();
     let input = crate::site_io::load_site(&args.site)?;
     let bar = crate::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
@@ -345,21 +346,28 @@ pub fn run(args: Args) -> Result<()> {
         bar.inc(1);
         let (events, segs, counts) = survey_log(l, &opts, &input, &cfg, args.survey_track)?;
         heading_segments.extend(segs);
-        shape.segments += counts.segments;
-        shape.shaped += counts.shaped;
-        shape.added += counts.added;
+        shape += counts;
         let mut p = SurveyPath {
             name: l.display().to_string(),
             ..Default::default()
         };
         let mut scans = Vec::new();
-        for e in events {
+        for e in &events {
             match e {
-                LogEvent::Ble(b) => p.observations.push(b),
-                LogEvent::Truth(t) => p.truth.push(t),
-                LogEvent::Wifi(w) if args.wifi => scans.push(w),
+                LogEvent::Ble(b) => p.observations.push(b.clone()),
+                LogEvent::Truth(t) => p.truth.push(*t),
+                LogEvent::Wifi(w) if args.wifi => scans.push(w.clone()),
                 _ => {}
             }
+        }
+        if args.radio_map.is_some() {
+            // the map reads radio and truth only: the sensor samples (most
+            // of a log) are not kept across the logs
+            let mut events = events;
+            events
+                .retain(|e| matches!(e, LogEvent::Ble(_) | LogEvent::Wifi(_) | LogEvent::Truth(_)));
+            events.shrink_to_fit();
+            radio_map_logs.push((l.clone(), events));
         }
         if p.truth.len() < 2 {
             eprintln!("{}: fewer than 2 truth points, skipped", l.display());
@@ -440,16 +448,9 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(rm) = &args.radio_map {
         let site = crate::site_io::load_site(&args.out)?;
-        let load = |l: &Path| -> Result<Vec<LogEvent>> {
-            match args.survey_track {
-                SurveyTrack::Linear => load_events(l, &opts),
-                SurveyTrack::Pdr => Ok(survey_log(l, &opts, &input, &cfg, args.survey_track)?.0),
-            }
-        };
         crate::radio_map::build(
             &site,
-            &logs,
-            &load,
+            radio_map_logs,
             args.radio_map_config.as_deref(),
             rm,
             args.radio_map_report.as_deref(),

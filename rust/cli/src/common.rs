@@ -128,10 +128,12 @@ pub fn start_for(
     if !wants {
         return Ok((None, 0));
     }
-    let Some((k, tp)) = log.events.iter().enumerate().find_map(|(k, e)| match e {
-        LogEvent::Truth(t) => Some((k, *t)),
-        _ => None,
-    }) else {
+    let Some((k, tp)) = log
+        .events
+        .iter()
+        .enumerate()
+        .find_map(|(k, e)| Some((k, *e.as_truth()?)))
+    else {
         bail!(
             "{}: engine `{engine}` needs a start from truth, but the log has no truth point",
             log.path.display()
@@ -188,10 +190,7 @@ pub fn run_log(
     // after the log's first (nothing can be known at a log's first instant;
     // with a start from truth that point is the start and is not replayed).
     if start == 0
-        && let Some(first) = log.events.iter().find_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        })
+        && let Some(first) = log.events.iter().find_map(LogEvent::as_truth).copied()
         && out.scored.first().is_some_and(|s| s.truth == first)
     {
         out.scored.remove(0);

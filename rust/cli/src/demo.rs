@@ -100,18 +100,13 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let truth: Vec<(f64, f64)> = log
             .events
             .iter()
-            .filter_map(|e| match e {
-                LogEvent::Truth(t) => Some((t.x_m, t.y_m)),
-                _ => None,
-            })
+            .filter_map(LogEvent::as_truth)
+            .map(|t| (t.x_m, t.y_m))
             .collect();
         let floor = log
             .events
             .iter()
-            .find_map(|e| match e {
-                LogEvent::Truth(t) => t.floor,
-                _ => None,
-            })
+            .find_map(|e| e.as_truth()?.floor)
             .unwrap_or_else(|| site.default_floor());
         let mut panels = Vec::new();
         for (k, name) in args.engines.iter().enumerate() {

@@ -48,10 +48,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let (events, _) = fpbp_logs::read_all(log, &opts)
             .with_context(|| format!("cannot read truth from {}", log.display()))?;
         let before = truth.len();
-        truth.extend(events.iter().filter_map(|e| match e {
-            fpbp_core::events::LogEvent::Truth(t) => Some((t.floor, t.x_m, t.y_m)),
-            _ => None,
-        }));
+        truth.extend(
+            events
+                .iter()
+                .filter_map(fpbp_core::events::LogEvent::as_truth)
+                .map(|t| (t.floor, t.x_m, t.y_m)),
+        );
         println!("truth {}: {} point(s)", log.display(), truth.len() - before);
     }
     std::fs::create_dir_all(&args.out)

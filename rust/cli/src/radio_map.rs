@@ -12,13 +12,12 @@ use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfi
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
 
-/// Builds the map of `logs` on `site` (its beacons and APs are the
-/// fallback), writes it to `out` (and the per-transmitter report to
-/// `report`), prints a summary.
+/// Builds the map of `logs` (each log's path and events) on `site` (its
+/// beacons and APs are the fallback), writes it to `out` (and the
+/// per-transmitter report to `report`), prints a summary.
 pub fn build(
     site: &Site,
-    logs: &[PathBuf],
-    load: &dyn Fn(&Path) -> Result<Vec<LogEvent>>,
+    logs: Vec<(PathBuf, Vec<LogEvent>)>,
     config: Option<&Path>,
     out: &Path,
     report: Option<&Path>,
@@ -36,10 +35,9 @@ pub fn build(
     let default_floor = (site.spec.floors.len() == 1).then(|| site.default_floor());
     let mut scans = ReferenceScanBuilder::new(&ReferenceScanConfig::default(), default_floor)?;
     let bar = crate::progress::bar(logs.len() as u64);
-    for l in logs {
-        bar.set_message(format!("radio map: reading {}", l.display()));
+    for (l, events) in logs {
+        bar.set_message(format!("radio map: {}", l.display()));
         bar.inc(1);
-        let events = load(l)?;
         b.add_log(&events);
         scans.add_log(&events);
     }

@@ -9,7 +9,6 @@ use std::sync::Arc;
 
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
-use fpbp_core::events::LogEvent;
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::site::{Site, SiteSpec};
 use fpbp_sim::{SimRequest, simulate};
@@ -47,10 +46,7 @@ fn pdr_segments(bias: f64) -> Vec<HeadingSegment> {
             .events
             .iter()
             .enumerate()
-            .find_map(|(k, e)| match e {
-                LogEvent::Truth(t) => Some((k, *t)),
-                _ => None,
-            })
+            .find_map(|(k, e)| Some((k, *e.as_truth()?)))
             .unwrap();
         let init = InitialPosition {
             x_m: first.x_m,

@@ -38,13 +38,8 @@ fn ilc_site2_f4_walked_distance_cadence_and_heading() {
         let (events, _) = read_all(&f, &opts).unwrap();
         let truth: Vec<_> = events
             .iter()
-            .filter_map(|e| {
-                if let LogEvent::Truth(t) = e {
-                    Some(*t)
-                } else {
-                    None
-                }
-            })
+            .filter_map(LogEvent::as_truth)
+            .copied()
             .collect();
         let len: f64 = truth
             .windows(2)

@@ -168,4 +168,39 @@ impl LogEvent {
             LogEvent::Truth(e) => e.t_ns,
         }
     }
+
+    /// The ground-truth point, if the event is one (`events.iter()
+    /// .filter_map(LogEvent::as_truth)`: a log's truth).
+    pub fn as_truth(&self) -> Option<&TruthPoint> {
+        match self {
+            LogEvent::Truth(t) => Some(t),
+            _ => None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn as_truth_is_the_truth_point_only() {
+        let t = TruthPoint {
+            t_ns: 5,
+            x_m: 1.0,
+            y_m: 2.0,
+            floor: Some(0),
+        };
+        assert_eq!(LogEvent::Truth(t).as_truth(), Some(&t));
+        let g = LogEvent::Gnss(GnssFix {
+            t_ns: 5,
+            lat_deg: 0.0,
+            lon_deg: 0.0,
+            alt_m: None,
+            accuracy_m: None,
+            speed_mps: None,
+            bearing_deg: None,
+        });
+        assert_eq!(g.as_truth(), None);
+    }
 }

@@ -80,15 +80,15 @@ fn run(a: &Args) -> Result<(), String> {
     };
     let (events, _report) = fpbp_logs::read_all(&a.log, &opts).map_err(|e| e.to_string())?;
     let init = if a.init_first_truth {
-        events.iter().find_map(|e| match e {
-            LogEvent::Truth(t) => Some(InitialPosition {
+        events
+            .iter()
+            .find_map(LogEvent::as_truth)
+            .map(|t| InitialPosition {
                 x_m: t.x_m,
                 y_m: t.y_m,
                 floor: t.floor.unwrap_or(0),
                 heading_rad: None,
-            }),
-            _ => None,
-        })
+            })
     } else {
         None
     };

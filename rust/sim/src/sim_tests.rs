@@ -53,10 +53,8 @@ fn truth_never_crosses_a_wall() {
         let pts: Vec<Vec2> = log
             .events
             .iter()
-            .filter_map(|e| match e {
-                LogEvent::Truth(t) => Some(Vec2::new(t.x_m, t.y_m)),
-                _ => None,
-            })
+            .filter_map(LogEvent::as_truth)
+            .map(|t| Vec2::new(t.x_m, t.y_m))
             .collect();
         let mut rooms = [false; 2];
         for w in pts.windows(2) {

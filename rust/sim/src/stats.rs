@@ -283,10 +283,8 @@ pub fn rssi_slope(
 ) -> Option<RssiSlope> {
     let truth: Vec<(i64, f64, f64, Option<i32>)> = events
         .iter()
-        .filter_map(|e| match e {
-            LogEvent::Truth(t) => Some((t.t_ns, t.x_m, t.y_m, t.floor)),
-            _ => None,
-        })
+        .filter_map(LogEvent::as_truth)
+        .map(|t| (t.t_ns, t.x_m, t.y_m, t.floor))
         .collect();
     let mut xs = Vec::new();
     let mut ys = Vec::new();

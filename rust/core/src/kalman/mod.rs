@@ -125,6 +125,14 @@ pub fn robust_update(
 }
 
 /// Wraps an angle to (-pi, pi].
+///
+/// Not [`crate::geometry::wrap_angle`], though it agrees with it at ±pi,
+/// on multiples of pi, on positive angles and on NaN: a negative angle goes
+/// through `a + 2 pi` here and comes back up to half an ulp of 2 pi off
+/// (`wrap_pi(-1e-10)` is -1.00000008e-10, `wrap_pi(-1e-20)` is 0), where
+/// `wrap_angle` returns an angle already in range unchanged. The robust
+/// EKF's heading innovations go through it, so its tracks depend on these
+/// bits (unit test).
 pub fn wrap_pi(a: f64) -> f64 {
     let t = std::f64::consts::TAU;
     let mut w = a.rem_euclid(t);
@@ -215,5 +223,32 @@ mod tests {
     fn wraps_angles() {
         assert!((wrap_pi(3.0 * std::f64::consts::PI) - std::f64::consts::PI).abs() < 1e-12);
         assert!((wrap_pi(-0.5) + 0.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn wrap_pi_differs_from_wrap_angle_only_in_the_last_bits_of_negative_angles() {
+        use crate::geometry::wrap_angle;
+        use std::f64::consts::PI;
+        for a in [
+            PI,
+            -PI,
+            3.0 * PI,
+            -3.0 * PI,
+            0.0,
+            -0.0,
+            0.5,
+            -0.5,
+            4.0,
+            -4.0,
+            1e6,
+            -1e6,
+        ] {
+            assert_eq!(wrap_pi(a).to_bits(), wrap_angle(a).to_bits(), "{a}");
+        }
+        assert!(wrap_pi(f64::NAN).is_nan() && wrap_angle(f64::NAN).is_nan());
+        assert_eq!(wrap_angle(-1e-10), -1e-10);
+        assert_ne!(wrap_pi(-1e-10), -1e-10);
+        assert!((wrap_pi(-1e-10) + 1e-10).abs() < 1e-15);
+        assert_eq!((wrap_pi(-1e-20), wrap_angle(-1e-20)), (0.0, -1e-20));
     }
 }

@@ -59,6 +59,15 @@ pub struct ShapeCounts {
     pub added: usize,
 }
 
+impl std::ops::AddAssign for ShapeCounts {
+    /// Field by field (the counts of several logs).
+    fn add_assign(&mut self, o: ShapeCounts) {
+        self.segments += o.segments;
+        self.shaped += o.shaped;
+        self.added += o.added;
+    }
+}
+
 /// The PDR track's position at `t_ns` (linear between its samples; the
 /// track is time-sorted), if `t_ns` lies within it.
 fn track_at(track: &[(i64, Vec2)], t_ns: i64) -> Option<Vec2> {
@@ -221,5 +230,27 @@ mod tests {
             &ShapeLimits::default(),
         );
         assert_eq!((c.segments, c.shaped, out.len()), (1, 0, 2));
+    }
+
+    #[test]
+    fn counts_add_field_by_field() {
+        let mut c = ShapeCounts {
+            segments: 3,
+            shaped: 2,
+            added: 10,
+        };
+        c += ShapeCounts {
+            segments: 4,
+            shaped: 1,
+            added: 5,
+        };
+        assert_eq!(
+            c,
+            ShapeCounts {
+                segments: 7,
+                shaped: 3,
+                added: 15
+            }
+        );
     }
 }

@@ -218,7 +218,9 @@ impl CellExpected {
 
 /// `model` with the expected RSSI over `cells` of `floor` read from
 /// `cache` where it holds them (the same values; anything else asks
-/// `model`).
+/// `model`). Forwards the trait by hand: [`profiled_many`] takes a
+/// `&dyn RadioModel`, and the defaulted methods must reach `model` too
+/// (`learned_per_floor`, `reference_scans`), not fall back to the defaults.
 struct WithCells<'a> {
     model: &'a dyn RadioModel,
     floor: i32,

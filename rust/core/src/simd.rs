@@ -1,14 +1,16 @@
-//! Runtime dispatch of the particle loops to AVX2.
+//! Runtime dispatch of the particle loops to AVX2 or AVX-512.
 //!
 //! The crate is built for the x86-64 baseline (SSE2: two f64 lanes). The
 //! per-particle loops (expected RSSI, likelihood products, exp, Box-Muller)
 //! are vectorised by the compiler; a function defined by [`avx2_dispatch!`]
-//! runs its loop compiled with AVX2 enabled (four f64 lanes) when the CPU
-//! has it, as built otherwise (and on every other architecture).
+//! runs its loop compiled with AVX-512 (F, DQ, VL: eight f64 lanes) when
+//! the CPU has it, else compiled with AVX2 (four lanes) when the CPU has
+//! that, as built otherwise (and on every other architecture).
 //!
 //! The values are the same bits either way: Rust does not fuse a multiply
 //! and an add into an FMA or reorder floating-point arithmetic unless told
-//! to, and AVX2 (without the `fma` feature, which is not enabled here) has
+//! to (enabling AVX-512 makes FMA instructions available, it does not make
+//! the compiler contract `a * b + c` into one), and AVX2 and AVX-512 have
 //! the same IEEE operations as SSE2, so wider lanes change how many
 //! particles one instruction handles, not any result. The tests of the
 //! callers pin that (`simd_paths_agree_to_the_bit` in each module).
@@ -33,32 +35,71 @@ pub fn has_avx2() -> bool {
     }
 }
 
-thread_local! {
-    /// Set by [`baseline`]: this thread runs every loop as built.
-    static BASELINE: Cell<bool> = const { Cell::new(false) };
+/// Whether this CPU has the AVX-512 subsets the wide build is compiled for
+/// (F, DQ, VL; checked once by the standard library, then loads).
+#[inline]
+pub fn has_avx512() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx512f")
+            && std::arch::is_x86_feature_detected!("avx512dq")
+            && std::arch::is_x86_feature_detected!("avx512vl")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
 }
 
-/// Whether the functions of [`avx2_dispatch!`] take their AVX2 build now:
-/// the CPU has AVX2 and this thread is not inside [`baseline`].
+/// The widest build this thread may take: [`WIDEST`], or less inside
+/// [`baseline`] / [`at_most_avx2`].
+const WIDEST: u8 = 2;
+
+thread_local! {
+    /// Set by [`baseline`] (0) and [`at_most_avx2`] (1).
+    static CAP: Cell<u8> = const { Cell::new(WIDEST) };
+}
+
+/// Whether the functions of [`avx2_dispatch!`] take their AVX-512 build
+/// now: the CPU has it and this thread is not inside [`baseline`] or
+/// [`at_most_avx2`].
+#[inline]
+pub fn use_avx512() -> bool {
+    CAP.get() >= 2 && has_avx512()
+}
+
+/// Whether the functions of [`avx2_dispatch!`] take (at least) their AVX2
+/// build now: the CPU has AVX2 and this thread is not inside [`baseline`].
 #[inline]
 pub fn use_avx2() -> bool {
-    has_avx2() && !BASELINE.get()
+    CAP.get() >= 1 && has_avx2()
+}
+
+fn capped<R>(cap: u8, f: impl FnOnce() -> R) -> R {
+    let before = CAP.replace(cap);
+    let r = f();
+    CAP.set(before);
+    r
 }
 
 /// Runs `f` with every function of [`avx2_dispatch!`] (on this thread)
 /// taking its baseline build: the reference the tests compare with.
 pub fn baseline<R>(f: impl FnOnce() -> R) -> R {
-    let before = BASELINE.replace(true);
-    let r = f();
-    BASELINE.set(before);
-    r
+    capped(0, f)
 }
 
-/// Defines a function whose body is compiled twice, as built and with
-/// AVX2 enabled, and runs the AVX2 build when [`use_avx2`]. The body
-/// should be a whole hot loop: it is inlined into both builds (and the
-/// `#[inline]` functions it calls with it), so the check is paid once per
-/// call, not per particle. Arguments are `name: Type` (no patterns).
+/// Runs `f` with every function of [`avx2_dispatch!`] (on this thread)
+/// taking its AVX2 build at most (the tests compare it with the others).
+pub fn at_most_avx2<R>(f: impl FnOnce() -> R) -> R {
+    capped(1, f)
+}
+
+/// Defines a function whose body is compiled three times, as built, with
+/// AVX2 and with AVX-512 enabled, and runs the widest build the CPU has
+/// ([`use_avx512`], [`use_avx2`]). The body should be a whole hot loop: it
+/// is inlined into every build (and the `#[inline]` functions it calls
+/// with it), so the check is paid once per call, not per particle.
+/// Arguments are `name: Type` (no patterns).
 macro_rules! avx2_dispatch {
     (
         $(#[$attr:meta])*
@@ -71,9 +112,19 @@ macro_rules! avx2_dispatch {
             fn kernel($($arg: $ty),*) $(-> $ret)? $body
             #[cfg(target_arch = "x86_64")]
             {
+                #[target_feature(enable = "avx512f,avx512dq,avx512vl")]
+                fn avx512($($arg: $ty),*) $(-> $ret)? {
+                    kernel($($arg),*)
+                }
                 #[target_feature(enable = "avx2")]
                 fn avx2($($arg: $ty),*) $(-> $ret)? {
                     kernel($($arg),*)
+                }
+                if $crate::simd::use_avx512() {
+                    // SAFETY: the CPU has AVX-512 F, DQ and VL
+                    // (`use_avx512`), the features `avx512` was compiled
+                    // for.
+                    return unsafe { avx512($($arg),*) };
                 }
                 if $crate::simd::use_avx2() {
                     // SAFETY: the CPU has AVX2 (`use_avx2`), the one
@@ -171,8 +222,10 @@ mod tests {
             })
             .collect();
         let fast = cloud_values(&m, &ps, &meas);
+        let avx2 = at_most_avx2(|| cloud_values(&m, &ps, &meas));
         let reference = baseline(|| cloud_values(&m, &ps, &meas));
         assert_eq!(fast.len(), reference.len());
-        assert!(fast == reference, "the AVX2 build changed a value");
+        assert!(avx2 == reference, "the AVX2 build changed a value");
+        assert!(fast == reference, "the AVX-512 build changed a value");
     }
 }

@@ -80,7 +80,7 @@ pub fn fill_uniform(rng: &mut Pcg64, out: &mut [f64]) {
 /// [`fill_uniform`] into `buf`, then spread.
 pub fn fill_interleaved(rng: &mut Pcg64, buf: &mut Vec<f64>, m: usize, outs: &mut [&mut [f64]]) {
     let k = outs.len();
-    if k == 0 {
+    if k == 0 || m == 0 {
         return;
     }
     buf.resize(k * m, 0.0);
@@ -96,6 +96,18 @@ pub fn fill_interleaved(rng: &mut Pcg64, buf: &mut Vec<f64>, m: usize, outs: &mu
 mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
+
+    #[test]
+    fn no_particles_draw_nothing() {
+        let mut rng = Pcg64::seed_from_u64(3);
+        let before = rng.clone();
+        let (mut a, mut b): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+        let mut buf = Vec::new();
+        // two outputs and no particles: spreading used to slice `buf[1..]`
+        // of an empty buffer and panic
+        fill_interleaved(&mut rng, &mut buf, 0, &mut [&mut a[..], &mut b[..]]);
+        assert_eq!(rng, before, "no uniform taken for zero particles");
+    }
 
     #[test]
     fn bulk_draws_are_the_serial_ones() {

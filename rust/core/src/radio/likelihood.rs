@@ -59,6 +59,12 @@ pub struct LikelihoodConfig {
     pub sensitivity_scale_db: f64,
     pub miss_prob_min: f64,
     pub miss_weight: f64,
+    /// Weight of the -ln sd normaliser of each residual (1: the density
+    /// as it is). Below 1 a place whose spread is wide because it lies
+    /// far from the survey walks pays less for that width on every scan:
+    /// the width there is mostly doubt about the mean, which one walk
+    /// past it shares across all its scans, not fresh noise per scan.
+    pub sd_norm_weight: f64,
 }
 
 impl Default for LikelihoodConfig {
@@ -79,6 +85,7 @@ impl Default for LikelihoodConfig {
             sensitivity_scale_db: 4.0,
             miss_prob_min: 0.1,
             miss_weight: 0.0,
+            sd_norm_weight: 1.0,
         }
     }
 }
@@ -130,6 +137,7 @@ impl LikelihoodConfig {
             ),
             ("miss_prob_min", self.miss_prob_min, 1e-6, 1.0),
             ("miss_weight", self.miss_weight, 0.0, 100.0),
+            ("sd_norm_weight", self.sd_norm_weight, 0.0, 1.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return Err(crate::Error::config(
@@ -178,7 +186,7 @@ pub fn log_likelihood(
     for m in meas {
         if let Some((mu, sd)) = model.expected(m.tx, floor, p) {
             let z = (m.rssi_dbm - offset_db - mu) / sd;
-            s += cfg.log_t(z) - sd.ln();
+            s += cfg.log_t(z) - cfg.sd_norm_weight * sd.ln();
         }
     }
     s
@@ -298,6 +306,7 @@ impl CloudLikelihood {
         out.resize(n, 0.0);
         let half_nu1 = 0.5 * (cfg.student_nu + 1.0);
         let inv_nu = 1.0 / cfg.student_nu;
+        let sd_w = cfg.sd_norm_weight;
         let (mut terms, mut sd_varies, mut ln_sd_sum) = (0usize, false, 0.0);
         for (k, m) in meas.iter().enumerate() {
             let mean = &mut self.mean[k * n..(k + 1) * n];
@@ -353,27 +362,28 @@ impl CloudLikelihood {
             }
             terms += 1;
             if terms == PRODUCT_TERMS {
-                self.flush(out, half_nu1, sd_varies);
+                self.flush(out, half_nu1, sd_w, sd_varies);
                 (terms, sd_varies) = (0, false);
             }
         }
         if terms > 0 {
-            self.flush(out, half_nu1, sd_varies);
+            self.flush(out, half_nu1, sd_w, sd_varies);
         }
         if ln_sd_sum != 0.0 {
-            out.iter_mut().for_each(|u| *u -= ln_sd_sum);
+            let c = sd_w * ln_sd_sum;
+            out.iter_mut().for_each(|u| *u -= c);
         }
     }
 
     /// Moves the products into `out` and resets them.
     #[inline(always)]
-    fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_varies: bool) {
+    fn flush(&mut self, out: &mut [f64], half_nu1: f64, sd_w: f64, sd_varies: bool) {
         let sd_prod = if sd_varies {
             Some(&mut self.sd_prod[..])
         } else {
             None
         };
-        drain_products(out, &mut self.prod, sd_prod, half_nu1);
+        drain_products(out, &mut self.prod, sd_prod, half_nu1, sd_w);
     }
 
     /// For the `k`-th measurement of the last
@@ -525,12 +535,18 @@ crate::simd::avx2_dispatch! {
     }
 }
 
-/// `out -= half_nu1 ln(prod) + ln(sd_prod)` (without `sd_prod`: `out -=
+/// `out -= half_nu1 ln(prod) + sd_w ln(sd_prod)` (without `sd_prod`: `out -=
 /// half_nu1 ln(prod)`), the products reset to 1, with [`fast_ln`]'s values:
 /// the branch-free logarithm (vectorises) when every product is normal.
 /// The cloud's flush and the likelihood surface's.
 #[inline(always)]
-fn drain_products(out: &mut [f64], prod: &mut [f64], sd_prod: Option<&mut [f64]>, half_nu1: f64) {
+fn drain_products(
+    out: &mut [f64],
+    prod: &mut [f64],
+    sd_prod: Option<&mut [f64]>,
+    half_nu1: f64,
+    sd_w: f64,
+) {
     let normal = |v: &[f64]| {
         v.iter().fold(true, |ok, q| {
             ok & (f64::MIN_POSITIVE..=f64::MAX).contains(q)
@@ -538,9 +554,9 @@ fn drain_products(out: &mut [f64], prod: &mut [f64], sd_prod: Option<&mut [f64]>
     };
     // two calls with a constant logarithm each, so each inlines and vectorises
     if normal(prod) && sd_prod.as_deref().is_none_or(normal) {
-        drain_with(out, prod, sd_prod, half_nu1, ln_normal);
+        drain_with(out, prod, sd_prod, half_nu1, sd_w, ln_normal);
     } else {
-        drain_with(out, prod, sd_prod, half_nu1, fast_ln);
+        drain_with(out, prod, sd_prod, half_nu1, sd_w, fast_ln);
     }
 }
 
@@ -551,12 +567,13 @@ fn drain_with(
     prod: &mut [f64],
     sd_prod: Option<&mut [f64]>,
     half_nu1: f64,
+    sd_w: f64,
     ln: fn(f64) -> f64,
 ) {
     match sd_prod {
         Some(sd_prod) => {
             for ((u, q), qs) in out.iter_mut().zip(prod.iter_mut()).zip(sd_prod.iter_mut()) {
-                *u -= half_nu1 * ln(*q) + ln(*qs);
+                *u -= half_nu1 * ln(*q) + sd_w * ln(*qs);
                 (*q, *qs) = (1.0, 1.0);
             }
         }
@@ -615,6 +632,7 @@ fn profiled_many_in(
     lls.resize(n, 0.0);
     let half_nu1 = 0.5 * (cfg.student_nu + 1.0);
     let inv_nu = 1.0 / cfg.student_nu;
+    let sd_w = cfg.sd_norm_weight;
     let (mut prod, mut sd_prod) = (vec![1.0; n], vec![1.0; n]);
     let mut terms = 0;
     for (k, m) in meas.iter().enumerate() {
@@ -630,12 +648,12 @@ fn profiled_many_in(
         }
         terms += 1;
         if terms == PRODUCT_TERMS {
-            drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1);
+            drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1, sd_w);
             terms = 0;
         }
     }
     if terms > 0 {
-        drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1);
+        drain_products(lls, &mut prod, Some(&mut sd_prod), half_nu1, sd_w);
     }
     for (l, o) in lls.iter_mut().zip(offsets.iter()) {
         let z0 = (o - prior_db) / prior_sd_db.max(1e-3);
@@ -746,10 +764,15 @@ mod tests {
             .map(|i| Vec2::new((i % 20) as f64 * 1.03, (i / 20) as f64 * 0.97))
             .chain(bs.iter().map(|b| Vec2::new(b.0, b.1)))
             .collect();
-        let cfg = LikelihoodConfig::default();
         let mut cloud = CloudLikelihood::default();
         let mut out = Vec::new();
-        for (k, model) in [&m as &dyn RadioModel, &wavy].into_iter().enumerate() {
+        let cfgs = [1.0, 0.4].map(|sd_norm_weight| LikelihoodConfig {
+            sd_norm_weight,
+            ..LikelihoodConfig::default()
+        });
+        let cfg = &cfgs[0];
+        let cases = [&m as &dyn RadioModel, &wavy].into_iter().enumerate();
+        for ((k, model), cfg) in cases.flat_map(|c| cfgs.iter().map(move |g| (c, g))) {
             for n_heard in [1usize, 7, 8, 9, 20] {
                 // heard at (7, 11) with an offset, one 25 dB outlier, one
                 // unknown transmitter index
@@ -767,23 +790,23 @@ mod tests {
                     rssi_dbm: -70.0,
                     readings: 1,
                 });
-                cloud.evaluate(model, &cfg, &meas, 0, &ps, -5.0, &mut out);
+                cloud.evaluate(model, cfg, &meas, 0, &ps, -5.0, &mut out);
                 assert_eq!(out.len(), ps.len());
                 let mut worst: f64 = 0.0;
                 for (p, l) in ps.iter().zip(&out) {
-                    let exact = log_likelihood(model, &cfg, &meas, 0, *p, -5.0);
+                    let exact = log_likelihood(model, cfg, &meas, 0, *p, -5.0);
                     worst = worst.max((l - exact).abs());
                 }
                 assert!(worst < 1e-6, "model {k}, {n_heard} heard: {worst}");
                 // each particle with its own offset
                 let offs: Vec<f64> = (0..ps.len()).map(|i| -9.0 + (i % 7) as f64).collect();
                 let mut each = Vec::new();
-                cloud.evaluate_each(model, &cfg, &meas, 0, &ps, &offs, &mut each);
+                cloud.evaluate_each(model, cfg, &meas, 0, &ps, &offs, &mut each);
                 for ((p, l), o) in ps.iter().zip(&each).zip(&offs) {
-                    let exact = log_likelihood(model, &cfg, &meas, 0, *p, *o);
+                    let exact = log_likelihood(model, cfg, &meas, 0, *p, *o);
                     assert!((l - exact).abs() < 1e-6, "{l} {exact}");
                 }
-                cloud.evaluate(model, &cfg, &meas, 0, &ps, -5.0, &mut out);
+                cloud.evaluate(model, cfg, &meas, 0, &ps, -5.0, &mut out);
                 // the residual sums are those of `expected`
                 let w: Vec<f64> = (0..ps.len()).map(|i| 1.0 + (i % 3) as f64).collect();
                 for (j, mm) in meas.iter().enumerate() {
@@ -804,9 +827,9 @@ mod tests {
             }
         }
         // an empty cloud and no measurement
-        cloud.evaluate(&m, &cfg, &[], 0, &ps, 0.0, &mut out);
+        cloud.evaluate(&m, cfg, &[], 0, &ps, 0.0, &mut out);
         assert!(out.iter().all(|l| *l == 0.0) && out.len() == ps.len());
-        cloud.evaluate(&m, &cfg, &heard(&m, ps[0], 0.0), 0, &[], 0.0, &mut out);
+        cloud.evaluate(&m, cfg, &heard(&m, ps[0], 0.0), 0, &[], 0.0, &mut out);
         assert!(out.is_empty());
     }
 
@@ -814,12 +837,15 @@ mod tests {
     fn the_profiled_surface_is_the_per_point_one() {
         let m = model();
         let wavy = Wavy(m.clone());
-        let cfg = LikelihoodConfig::default();
         let ps: Vec<Vec2> = (0..400)
             .map(|i| Vec2::new((i % 20) as f64 * 1.03, (i / 20) as f64 * 0.97))
             .collect();
         let (mut offs, mut sds, mut lls) = (Vec::new(), Vec::new(), Vec::new());
-        for model in [&m as &dyn RadioModel, &wavy] {
+        for (model, w) in [(&m as &dyn RadioModel, 1.0), (&wavy, 1.0), (&wavy, 0.3)] {
+            let cfg = LikelihoodConfig {
+                sd_norm_weight: w,
+                ..LikelihoodConfig::default()
+            };
             let mut meas = heard(&m, Vec2::new(6.0, 9.0), -7.0);
             meas[1].rssi_dbm -= 20.0;
             meas.push(Measurement {
@@ -837,6 +863,34 @@ mod tests {
                 assert!((sd - sd0).abs() < 1e-12, "{p:?}");
             }
         }
+    }
+
+    #[test]
+    fn the_spread_normaliser_is_weighted() {
+        let wavy = Wavy(model());
+        let meas = heard(&wavy.0, Vec2::new(6.0, 9.0), 0.0);
+        let p = Vec2::new(11.0, 4.0);
+        let full = LikelihoodConfig::default();
+        let none = LikelihoodConfig {
+            sd_norm_weight: 0.0,
+            ..full.clone()
+        };
+        let (mut sum_t, mut sum_ln_sd) = (0.0, 0.0);
+        for m in &meas {
+            let (mu, sd) = wavy.expected(m.tx, 0, p).unwrap();
+            sum_t += full.log_t((m.rssi_dbm - mu) / sd);
+            sum_ln_sd += sd.ln();
+        }
+        // weight 0: the residuals alone, a wide spread costs nothing
+        assert!((log_likelihood(&wavy, &none, &meas, 0, p, 0.0) - sum_t).abs() < 1e-12);
+        let l_full = log_likelihood(&wavy, &full, &meas, 0, p, 0.0);
+        assert!((l_full - (sum_t - sum_ln_sd)).abs() < 1e-12);
+        let bad = LikelihoodConfig {
+            sd_norm_weight: 1.5,
+            ..full
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("tcpf.likelihood.sd_norm_weight"), "{e}");
     }
 
     #[test]

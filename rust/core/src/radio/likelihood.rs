@@ -766,7 +766,7 @@ mod tests {
             .collect();
         let mut cloud = CloudLikelihood::default();
         let mut out = Vec::new();
-        let cfgs = [1.0, 0.4].map(|sd_norm_weight| LikelihoodConfig {
+        let cfgs = [1.0, 0.4, 0.75].map(|sd_norm_weight| LikelihoodConfig {
             sd_norm_weight,
             ..LikelihoodConfig::default()
         });
@@ -870,7 +870,10 @@ mod tests {
         let wavy = Wavy(model());
         let meas = heard(&wavy.0, Vec2::new(6.0, 9.0), 0.0);
         let p = Vec2::new(11.0, 4.0);
-        let full = LikelihoodConfig::default();
+        let full = LikelihoodConfig {
+            sd_norm_weight: 1.0,
+            ..LikelihoodConfig::default()
+        };
         let none = LikelihoodConfig {
             sd_norm_weight: 0.0,
             ..full.clone()

@@ -282,7 +282,7 @@ impl Default for TcpfConfig {
             start_floor_from_map: true,
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.5,
-            recovery_max_fraction: 0.2,
+            recovery_max_fraction: 0.1,
             recovery_margin: 0.0,
             recovery_min_wall_kill: 0.3,
             recovery_radio_alone_margin: 20.0,

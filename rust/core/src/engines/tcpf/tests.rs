@@ -402,7 +402,9 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     let (far, far_reseeded, far_far) = run_with(30.0, 12.0);
     assert_eq!(far_reseeded, 0);
     assert!(far_far > 0);
-    assert!(late_error(&far) > 10.0, "{:.1} m", late_error(&far));
+    // still lost near its wrong start (seeds 1-10: 9.1-10.4 m far, 1.4-2.0
+    // m near, with the stop-31 roughening that spreads the cloud more)
+    assert!(late_error(&far) > 6.0, "{:.1} m", late_error(&far));
     // the gate off: the same survey re-seeds
     let (_, off_reseeded, _) = run_with(30.0, 0.0);
     assert!(off_reseeded > 0);

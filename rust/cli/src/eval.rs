@@ -412,12 +412,12 @@ fn run_inner(
 }
 
 /// DIR/points.csv: one row per engine and scored truth point, with the
-/// estimated and true floors and the point's IPIN error (empty fields: no fix
-/// or no truth floor).
+/// estimated and true floors, the point's IPIN error and the pose's accuracy
+/// radius (empty fields: no fix or no truth floor).
 fn points_csv(engines: &[String], runs: &[Vec<LogRun>]) -> String {
     use std::fmt::Write;
     let mut s = String::from(
-        "engine,log,t_s,truth_x_m,truth_y_m,truth_floor,est_x_m,est_y_m,est_floor,error_m,ipin_error_m\n",
+        "engine,log,t_s,truth_x_m,truth_y_m,truth_floor,est_x_m,est_y_m,est_floor,error_m,ipin_error_m,accuracy_m\n",
     );
     let opt = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v:.3}"));
     for (e, rs) in engines.iter().zip(runs) {
@@ -426,7 +426,7 @@ fn points_csv(engines: &[String], runs: &[Vec<LogRun>]) -> String {
                 let t = &p.truth;
                 let _ = writeln!(
                     s,
-                    "{e},{},{:.3},{:.3},{:.3},{},{},{},{},{},{}",
+                    "{e},{},{:.3},{:.3},{:.3},{},{},{},{},{},{},{}",
                     r.log,
                     t.t_ns as f64 * 1e-9,
                     t.x_m,
@@ -437,6 +437,7 @@ fn points_csv(engines: &[String], runs: &[Vec<LogRun>]) -> String {
                     p.estimate.map_or(String::new(), |q| q.floor.to_string()),
                     opt(p.error_m()),
                     opt(common::ipin_error_m(p)),
+                    opt(p.estimate.map(|q| q.accuracy_m)),
                 );
             }
         }
@@ -594,10 +595,14 @@ mod tests {
         let csv = std::fs::read_to_string(d.join("out/points.csv")).unwrap();
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(lines.len(), 1 + 12 + 12, "{csv}");
-        assert!(lines[0].contains("est_floor") && lines[0].ends_with("ipin_error_m"));
+        assert!(lines[0].contains("est_floor") && lines[0].ends_with("ipin_error_m,accuracy_m"));
         // a pdr row has an estimated floor; a walk-east row (no fix) has none
         assert_eq!(lines[1].split(',').nth(8), Some("0"));
         assert_eq!(lines[13].split(',').nth(8), Some(""));
+        // the pose's radius beside its error; none without a fix
+        let acc: f64 = lines[1].split(',').nth(11).unwrap().parse().unwrap();
+        assert!(acc.is_finite() && acc >= 0.0, "{}", lines[1]);
+        assert_eq!(lines[13].split(',').nth(11), Some(""));
         // The odd split keeps one log.
         let ms = run_with(
             &Args {

@@ -82,6 +82,10 @@ pub fn build(
     for (k, n) in &why {
         println!("  left out: {n} x {k}");
     }
+    println!(
+        "magnetic map: {} magnetometer samples ({} placed), {} cells with a value",
+        s.magnetic_samples, s.magnetic_placed, s.magnetic_cells
+    );
     std::fs::write(out, map.to_json()?).with_context(|| format!("writing {}", out.display()))?;
     println!(
         "wrote {} ({} transmitters)",

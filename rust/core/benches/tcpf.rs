@@ -146,6 +146,7 @@ fn radio_map(site: &Site, n: usize) -> RadioMap {
         fallback: FallbackParams::default(),
         transmitters,
         reference_scans: None,
+        magnetic: None,
     };
     RadioMap::from_file(&file, site).expect("bench radio map")
 }

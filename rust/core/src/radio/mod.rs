@@ -25,6 +25,7 @@
 
 pub mod fast_ln;
 pub mod likelihood;
+pub mod magnetic_map;
 pub mod model;
 pub mod offset;
 pub mod radio_map;

@@ -159,6 +159,10 @@ pub trait RadioModel: Send + Sync {
     fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
         None
     }
+    /// The survey's magnetic field, when the model has it.
+    fn magnetic(&self) -> Option<&super::magnetic_map::MagneticMap> {
+        None
+    }
 }
 
 /// Settings of [`PathLossModel`].

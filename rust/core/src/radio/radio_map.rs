@@ -418,12 +418,19 @@ pub struct RadioMap {
     pub(crate) fallback: FallbackParams,
     /// The survey's scan vectors, when the map was built with them.
     pub(crate) scans: Option<super::reference_scans::ReferenceScans>,
+    /// The survey's magnetic field, when the map was built with it.
+    pub(crate) magnetic: Option<super::magnetic_map::MagneticMap>,
 }
 
 impl RadioMap {
     /// Attaches the survey's reference scans (carried in the map's file).
     pub fn set_reference_scans(&mut self, scans: super::reference_scans::ReferenceScans) {
         self.scans = Some(scans);
+    }
+
+    /// Attaches the survey's magnetic map (carried in the map's file).
+    pub fn set_magnetic(&mut self, magnetic: Option<super::magnetic_map::MagneticMap>) {
+        self.magnetic = magnetic;
     }
 
     /// A map of `tx` / `entries` (same order) on `site`'s floors; ids must
@@ -457,6 +464,7 @@ impl RadioMap {
                 .collect(),
             fallback,
             scans: None,
+            magnetic: None,
         })
     }
 
@@ -588,6 +596,10 @@ impl FastFallback {
 impl RadioModel for RadioMap {
     fn learned_per_floor(&self) -> bool {
         true
+    }
+
+    fn magnetic(&self) -> Option<&super::magnetic_map::MagneticMap> {
+        self.magnetic.as_ref()
     }
 
     fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {

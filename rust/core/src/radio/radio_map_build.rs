@@ -25,6 +25,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use serde::{Deserialize, Serialize};
 
+use super::magnetic_map::{MagneticMapBuilder, MagneticMapConfig};
 use super::model::{PathLossModel, PathLossParams, RadioModel, Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap, fallback_at};
 use super::survey::{RadioSample, SurveyCounts, SurveyOptions, survey_samples};
@@ -84,6 +85,9 @@ pub struct RadioMapConfig {
     /// m with the site's only (docs/parameters.md).
     pub site_transmitters_only: bool,
     pub fallback: FallbackParams,
+    /// The magnetic field's map from the same walks
+    /// ([`super::magnetic_map`]).
+    pub magnetic: MagneticMapConfig,
 }
 
 impl Default for RadioMapConfig {
@@ -108,6 +112,7 @@ impl Default for RadioMapConfig {
             phone_height_m: 1.2,
             site_transmitters_only: true,
             fallback: FallbackParams::default(),
+            magnetic: MagneticMapConfig::default(),
         }
     }
 }
@@ -117,6 +122,7 @@ impl RadioMapConfig {
     pub fn validate(&self) -> Result<()> {
         use crate::bounds::{MIN_GRID_STEP_M, check_range};
         let p = "radio_map";
+        self.magnetic.validate(&format!("{p}.magnetic"))?;
         check_range(&format!("{p}.cell_m"), self.cell_m, 0.25, 100.0)?;
         check_range(
             &format!("{p}.bin_m"),
@@ -238,6 +244,11 @@ pub struct BuildSummary {
     pub kept: usize,
     pub site_only: usize,
     pub cells: usize,
+    /// Magnetometer samples seen and placed, and the magnetic grids'
+    /// cells with a value.
+    pub magnetic_samples: usize,
+    pub magnetic_placed: usize,
+    pub magnetic_cells: usize,
 }
 
 /// Builds a [`RadioMap`] log by log.
@@ -248,6 +259,7 @@ pub struct RadioMapBuilder<'a> {
     ids: BTreeMap<(TxKind, String), usize>,
     acc: Vec<TxAcc>,
     summary: BuildSummary,
+    magnetic: Option<MagneticMapBuilder>,
 }
 
 impl<'a> RadioMapBuilder<'a> {
@@ -273,6 +285,11 @@ impl<'a> RadioMapBuilder<'a> {
             ids: BTreeMap::new(),
             acc: Vec::new(),
             summary: BuildSummary::default(),
+            magnetic: if cfg.magnetic.enabled {
+                Some(MagneticMapBuilder::new(&cfg.magnetic)?)
+            } else {
+                None
+            },
         })
     }
 
@@ -286,6 +303,11 @@ impl<'a> RadioMapBuilder<'a> {
             wifi_max_age_ns: (self.cfg.wifi_max_age_s * 1e9) as i64,
             min_rssi_dbm: self.cfg.min_rssi_dbm,
         };
+        if let Some(m) = self.magnetic.as_mut() {
+            let (seen, placed) = m.add_log(events, &opts);
+            self.summary.magnetic_samples += seen;
+            self.summary.magnetic_placed += placed;
+        }
         let mut dropped = 0usize;
         let counts = survey_samples(events, &opts, |s| {
             if !self.add_sample(walk, s) {
@@ -352,6 +374,7 @@ impl<'a> RadioMapBuilder<'a> {
             ids,
             acc,
             mut summary,
+            magnetic,
         } = self;
         summary.surveyed = ids.len();
         let mut tx = Vec::new();
@@ -464,7 +487,17 @@ impl<'a> RadioMapBuilder<'a> {
                 });
             }
         }
-        let map = RadioMap::assemble(site, tx, entries, cfg.fallback)?;
+        let mut map = RadioMap::assemble(site, tx, entries, cfg.fallback)?;
+        if let Some(m) = magnetic {
+            let (mag, _) = m.finish()?;
+            summary.magnetic_cells = mag.as_ref().map_or(0, |m| {
+                m.grids()
+                    .iter()
+                    .map(super::magnetic_map::valued_cells)
+                    .sum()
+            });
+            map.set_magnetic(mag);
+        }
         Ok((map, reports, summary))
     }
 }
@@ -554,11 +587,24 @@ impl Fallback<'_> {
 }
 
 /// A bin reduced to what smoothing needs.
-struct BinStat {
-    pos: Vec2,
-    n: f64,
-    sum: f64,
-    sum2: f64,
+pub(super) struct BinStat {
+    pub pos: Vec2,
+    pub n: f64,
+    pub sum: f64,
+    pub sum2: f64,
+}
+
+/// How [`smooth_grid`] turns bins into cells (the units are the values':
+/// dB for the radio map, uT for the magnetic one).
+pub(super) struct SmoothParams {
+    pub cell_m: f64,
+    pub bandwidth_m: f64,
+    pub max_distance_m: f64,
+    pub prior_weight: f64,
+    pub min_sd: f64,
+    pub max_sd: f64,
+    pub sd_growth_per_m: f64,
+    pub max_cells_per_grid: usize,
 }
 
 /// The grid of one transmitter on `floor` from its bins; `None` when no
@@ -579,21 +625,45 @@ fn build_grid(
             sum2: b.sum2,
         })
         .collect();
+    let p = SmoothParams {
+        cell_m: cfg.cell_m,
+        bandwidth_m: cfg.bandwidth_m,
+        max_distance_m: cfg.max_distance_m,
+        prior_weight: cfg.prior_weight,
+        min_sd: cfg.min_sd_db,
+        max_sd: cfg.max_sd_db,
+        sd_growth_per_m: cfg.sd_growth_db_per_m,
+        max_cells_per_grid: cfg.max_cells_per_grid,
+    };
+    smooth_grid(floor, &stats, &p, &|c| fb.at(floor, c))
+}
+
+/// A grid over the box of `stats` grown by `max_distance_m` (cells
+/// coarsened until at most `max_cells_per_grid`); each cell within
+/// `max_distance_m` of a bin holds the kernel mean and spread of the
+/// module docs, pulled towards `fallback(cell)` (mean, sd) by
+/// `prior_weight` pseudo-samples. `None` when no cell has a value.
+pub(super) fn smooth_grid(
+    floor: i32,
+    stats: &[BinStat],
+    p: &SmoothParams,
+    fallback: &dyn Fn(Vec2) -> (f64, f64),
+) -> Result<Option<Grid>> {
     let Some(first) = stats.first() else {
         return Ok(None);
     };
     let (mut lo, mut hi) = (first.pos, first.pos);
-    for s in &stats {
+    for s in stats {
         lo = lo.inf(&s.pos);
         hi = hi.sup(&s.pos);
     }
-    let margin = cfg.max_distance_m;
+    let margin = p.max_distance_m;
     let (w, h) = (hi.x - lo.x + 2.0 * margin, hi.y - lo.y + 2.0 * margin);
-    let mut cell = cfg.cell_m;
+    let mut cell = p.cell_m;
     let cells = |c: f64| ((w / c).ceil().max(1.0), (h / c).ceil().max(1.0));
     while {
         let (a, b) = cells(cell);
-        a * b > cfg.max_cells_per_grid as f64
+        a * b > p.max_cells_per_grid as f64
     } {
         cell *= 1.25;
     }
@@ -601,7 +671,7 @@ fn build_grid(
     let (nx, ny) = (nxf as usize, nyf as usize);
     let (x0, y0) = (lo.x - margin, lo.y - margin);
     // bins bucketed by the search radius
-    let h_m = cfg.bandwidth_m;
+    let h_m = p.bandwidth_m;
     let radius = (3.0 * h_m).max(margin).max(1e-3);
     let mut buckets: BTreeMap<(i64, i64), Vec<usize>> = BTreeMap::new();
     let key = |p: Vec2| ((p.x / radius).floor() as i64, (p.y / radius).floor() as i64);
@@ -611,7 +681,7 @@ fn build_grid(
     let n = nx * ny;
     let mut mean = crate::bounds::try_filled(n, NO_VALUE, "radio map grid")?;
     let mut sd = crate::bounds::try_filled(n, NO_VALUE, "radio map grid")?;
-    let w0 = cfg.prior_weight;
+    let w0 = p.prior_weight;
     let mut any = false;
     for j in 0..ny {
         for i in 0..nx {
@@ -638,18 +708,18 @@ fn build_grid(
             if dmin > margin {
                 continue;
             }
-            let (mu_fb, sd_fb) = fb.at(floor, c);
+            let (mu_fb, sd_fb) = fallback(c);
             let (m, v) = if sw > 1e-12 {
                 let m = s1 / sw;
-                (m, (s2 / sw - m * m).max(cfg.min_sd_db * cfg.min_sd_db))
+                (m, (s2 / sw - m * m).max(p.min_sd * p.min_sd))
             } else {
                 (mu_fb, sd_fb * sd_fb)
             };
             let lambda = if sw + w0 > 0.0 { sw / (sw + w0) } else { 1.0 };
             let mu = lambda * m + (1.0 - lambda) * mu_fb;
-            let g = cfg.sd_growth_db_per_m * dmin;
+            let g = p.sd_growth_per_m * dmin;
             let var = lambda * v + (1.0 - lambda) * sd_fb * sd_fb + g * g;
-            let s = var.sqrt().clamp(cfg.min_sd_db, cfg.max_sd_db);
+            let s = var.sqrt().clamp(p.min_sd, p.max_sd);
             let k = j * nx + i;
             mean[k] = x10(mu);
             sd[k] = x10(s).max(1);

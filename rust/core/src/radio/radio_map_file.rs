@@ -6,6 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::magnetic_map::MagneticMap;
 use super::model::{Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap};
 use super::reference_scans::{ReferenceScan, ReferenceScanConfig, ReferenceScans};
@@ -18,9 +19,9 @@ use crate::{Error, Result};
 
 /// `format` of a radio map file.
 pub const FORMAT: &str = "fpbp-radio-map";
-/// Current `version`: 2 added the optional `reference_scans` section;
-/// version 1 files (without it) still read.
-pub const VERSION: u32 = 2;
+/// Current `version`: 2 added the optional `reference_scans` section, 3
+/// the optional `magnetic` section; older files (without them) still read.
+pub const VERSION: u32 = 3;
 
 /// The file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -38,6 +39,19 @@ pub struct RadioMapFile {
     /// The survey's scan vectors (version 2), for `tcpf`'s anchors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub reference_scans: Option<ReferenceScansFile>,
+    /// The survey's magnetic field (version 3), for `tcpf`'s magnetic
+    /// likelihood.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub magnetic: Option<MagneticFile>,
+}
+
+/// The `magnetic` section ([`MagneticMap`]): one grid per floor of the
+/// field's magnitude, in the transmitters' grid layout with values in
+/// 0.1 uT (`mean_dbm_x10` / `sd_dbm_x10` hold uT x 10 here).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagneticFile {
+    pub grids: Vec<Grid>,
 }
 
 /// The `reference_scans` section ([`ReferenceScans`]).
@@ -118,7 +132,10 @@ impl RadioMap {
     pub fn to_file(&self) -> RadioMapFile {
         RadioMapFile {
             format: FORMAT.into(),
-            version: VERSION,
+            // the lowest version that holds what the file carries, so a
+            // map without a magnetic section stays readable by builds
+            // that read version 2
+            version: if self.magnetic.is_some() { VERSION } else { 2 },
             site: self.site_name.clone(),
             fallback: self.fallback,
             transmitters: self
@@ -158,6 +175,9 @@ impl RadioMap {
                     })
                     .collect(),
                 scans: r.scans().to_vec(),
+            }),
+            magnetic: self.magnetic.as_ref().map(|m| MagneticFile {
+                grids: m.grids().to_vec(),
             }),
         }
     }
@@ -278,7 +298,7 @@ impl RadioMap {
                         format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
                     );
                 }
-                grids.push(check_grid(&at, g, &floor_ok)?);
+                grids.push(check_grid(&at, g, &floor_ok, RSSI_RANGE)?);
                 if grids[..gi].iter().any(|o| o.floor == g.floor) {
                     return bad(
                         format!("{at}.floor"),
@@ -304,6 +324,27 @@ impl RadioMap {
         let mut map = RadioMap::assemble(site, tx, entries, file.fallback)?;
         if let Some(r) = &file.reference_scans {
             map.set_reference_scans(reference_scans_of(r, &floor_ok)?);
+        }
+        if let Some(m) = &file.magnetic {
+            let mut grids: Vec<Grid> = Vec::with_capacity(m.grids.len().min(64));
+            for (gi, g) in m.grids.iter().enumerate() {
+                let at = format!("magnetic.grids[{gi}]");
+                total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
+                if total_cells > MAX_RADIO_MAP_CELLS {
+                    return bad(
+                        format!("{at}.mean_dbm_x10"),
+                        format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
+                    );
+                }
+                if grids.iter().any(|o| o.floor == g.floor) {
+                    return bad(
+                        format!("{at}.floor"),
+                        format!("a second grid for floor {}", g.floor),
+                    );
+                }
+                grids.push(check_grid(&at, g, &floor_ok, MAGNETIC_RANGE)?);
+            }
+            map.set_magnetic(Some(MagneticMap::new(grids)));
         }
         Ok(map)
     }
@@ -347,7 +388,17 @@ fn reference_scans_of(
     ReferenceScans::new(r.config, ids, r.scans.clone())
 }
 
-fn check_grid(at: &str, g: &Grid, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid> {
+/// Range of a transmitter grid's means (0.1 dBm) and of a magnetic one's
+/// (0.1 uT), with the unit for messages.
+const RSSI_RANGE: (i16, i16, &str) = (-2000, 200, "0.1 dBm");
+const MAGNETIC_RANGE: (i16, i16, &str) = (0, 2000, "0.1 uT");
+
+fn check_grid(
+    at: &str,
+    g: &Grid,
+    floor_ok: &dyn Fn(i32) -> bool,
+    (lo, hi, unit): (i16, i16, &str),
+) -> Result<Grid> {
     if !floor_ok(g.floor) {
         return bad(
             format!("{at}.floor"),
@@ -407,16 +458,16 @@ fn check_grid(at: &str, g: &Grid, floor_ok: &dyn Fn(i32) -> bool) -> Result<Grid
                 "no value (-32768) in one array but not in the other".into(),
             );
         }
-        if m != NO_VALUE && !(-2000..=200).contains(&m) {
+        if m != NO_VALUE && !(lo..=hi).contains(&m) {
             return bad(
                 format!("{at}.mean_dbm_x10[{k}]"),
-                format!("{m} is outside [-2000, 200] (0.1 dBm)"),
+                format!("{m} is outside [{lo}, {hi}] ({unit})"),
             );
         }
         if s != NO_VALUE && s < 1 {
             return bad(
                 format!("{at}.sd_dbm_x10[{k}]"),
-                format!("{s} must be >= 1 (0.1 dB)"),
+                format!("{s} must be >= 1 (0.1 units)"),
             );
         }
     }

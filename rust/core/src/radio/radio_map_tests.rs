@@ -476,3 +476,89 @@ fn the_batched_grid_sampler_is_grid_sample_bit_for_bit() {
         }
     }
 }
+
+/// `logs` with a magnetometer sample every 0.1 s between their first and
+/// last truth points, |B| = 40 + 10 sin(x / 3) uT at the walker's
+/// (interpolated) position.
+fn with_magnetometer(logs: &[Vec<LogEvent>]) -> Vec<Vec<LogEvent>> {
+    use crate::events::{SensorData, SensorEvent};
+    logs.iter()
+        .map(|l| {
+            let truth: Vec<&TruthPoint> = l.iter().filter_map(LogEvent::as_truth).collect();
+            let mut out = l.clone();
+            for w in truth.windows(2) {
+                let (a, b) = (w[0], w[1]);
+                let mut t = a.t_ns;
+                while t < b.t_ns {
+                    let u = (t - a.t_ns) as f64 / (b.t_ns - a.t_ns) as f64;
+                    let x = a.x_m + u * (b.x_m - a.x_m);
+                    let m = 40.0 + 10.0 * (x / 3.0).sin();
+                    out.push(LogEvent::Sensor(SensorEvent {
+                        t_ns: t,
+                        data: SensorData::Magnetometer([m * 0.6, 0.0, -m * 0.8]),
+                    }));
+                    t += 100_000_000;
+                }
+            }
+            out.sort_by_key(LogEvent::t_ns);
+            out
+        })
+        .collect()
+}
+
+#[test]
+fn the_magnetic_section_is_built_from_the_walks_and_round_trips() {
+    let site = beacon_site(
+        "rm",
+        vec![open_map(40, 30)],
+        &[(20.0, 15.0)],
+        crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        },
+    );
+    // without magnetometer samples: no section, and a version-2 file
+    let (plain, _) = build(&site, &lines_survey(1, &field), &open_cfg());
+    assert!(plain.magnetic().is_none());
+    assert_eq!(plain.to_file().version, 2);
+    let logs = with_magnetometer(&lines_survey(1, &field));
+    let (m, _) = build(&site, &logs, &open_cfg());
+    let mag = m.magnetic().expect("a magnetic grid from the walks");
+    // on a walked line the grid holds the field
+    for x in [8.0, 15.0, 27.0] {
+        let p = Vec2::new(x, 12.0);
+        let (mu, sd) = mag.sample(0, p).expect("on the walk");
+        let truth = 40.0 + 10.0 * (x / 3.0).sin();
+        assert!((mu - truth).abs() < 2.0, "x {x}: {mu:.2} vs {truth:.2}");
+        assert!(sd >= 1.5, "sd {sd}");
+    }
+    // switched off: no section
+    let off = RadioMapConfig {
+        magnetic: crate::radio::magnetic_map::MagneticMapConfig {
+            enabled: false,
+            ..Default::default()
+        },
+        ..open_cfg()
+    };
+    assert!(build(&site, &logs, &off).0.magnetic().is_none());
+    // the file: version 3, the same grid back
+    let file = m.to_file();
+    assert_eq!(file.version, 3);
+    let back = RadioMap::from_json(&m.to_json().unwrap(), &site).unwrap();
+    assert_eq!(back.magnetic(), m.magnetic());
+    // bad sections name the field
+    let mut f1 = file.clone();
+    let g = &mut f1.magnetic.as_mut().unwrap().grids[0];
+    let k = g.mean_dbm_x10.iter().position(|v| *v != NO_VALUE).unwrap();
+    g.mean_dbm_x10[k] = -50;
+    let e = RadioMap::from_file(&f1, &site).unwrap_err().to_string();
+    assert!(
+        e.contains(&format!("magnetic.grids[0].mean_dbm_x10[{k}]")) && e.contains("uT"),
+        "{e}"
+    );
+    let mut f2 = file;
+    let g = f2.magnetic.as_ref().unwrap().grids[0].clone();
+    f2.magnetic.as_mut().unwrap().grids.push(g);
+    let e = RadioMap::from_file(&f2, &site).unwrap_err().to_string();
+    assert!(e.contains("magnetic.grids[1].floor"), "{e}");
+}

@@ -153,6 +153,34 @@ pub fn survey_samples(
     counts
 }
 
+/// The calibrated magnetometer samples of one log placed like the radio
+/// readings (truth runs of one floor, no gap over `max_truth_gap_ns`):
+/// `sink(floor, position, |B| uT)` for each; returns (seen, placed).
+pub fn magnetic_samples(
+    events: &[LogEvent],
+    opts: &SurveyOptions,
+    mut sink: impl FnMut(i32, Vec2, f64),
+) -> (usize, usize) {
+    let runs = floor_runs(events, opts.default_floor);
+    let (mut seen, mut placed) = (0, 0);
+    for e in events {
+        if let LogEvent::Sensor(s) = e
+            && let crate::events::SensorData::Magnetometer(b) = s.data
+        {
+            seen += 1;
+            let ut = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+            if !ut.is_finite() {
+                continue;
+            }
+            if let Some((pos, floor)) = position_at(&runs, s.t_ns, opts.max_truth_gap_ns) {
+                placed += 1;
+                sink(floor, pos, ut);
+            }
+        }
+    }
+    (seen, placed)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

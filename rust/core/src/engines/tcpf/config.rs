@@ -112,6 +112,56 @@ pub struct TcpfConfig {
     pub likelihood: LikelihoodConfig,
     pub offset: OffsetConfig,
     pub anchors: AnchorConfig,
+    pub magnetic: MagneticConfig,
+}
+
+/// The magnetic likelihood: with a radio map that carries the survey's
+/// magnetic field ([`crate::radio::magnetic_map`]), each fusion task in
+/// which the walker stepped weighs every particle by the mean |B| of the
+/// task's magnetometer samples against the map at the particle, a
+/// Student-t in uT, less one phone offset learned online.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MagneticConfig {
+    /// Exponent of the magnetic likelihood per update (0 = off; below 1
+    /// tempers for the field's correlation from one step to the next).
+    pub weight: f64,
+    /// Student-t degrees of freedom.
+    pub nu: f64,
+    /// Spread added in quadrature to the map's, uT (the phone's noise and
+    /// the offset's doubt).
+    pub extra_sd_ut: f64,
+    /// Gain of the online phone offset per update, and its bound, uT.
+    pub offset_gain: f64,
+    pub max_offset_ut: f64,
+}
+
+impl Default for MagneticConfig {
+    fn default() -> Self {
+        MagneticConfig {
+            weight: 0.0,
+            nu: 4.0,
+            extra_sd_ut: 2.0,
+            offset_gain: 0.05,
+            max_offset_ut: 20.0,
+        }
+    }
+}
+
+impl MagneticConfig {
+    /// Checks every field; errors name `tcpf.magnetic.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        for (f, v, lo, hi) in [
+            ("weight", self.weight, 0.0, 10.0),
+            ("nu", self.nu, 0.5, 1000.0),
+            ("extra_sd_ut", self.extra_sd_ut, 0.0, 100.0),
+            ("offset_gain", self.offset_gain, 0.0, 1.0),
+            ("max_offset_ut", self.max_offset_ut, 0.0, 200.0),
+        ] {
+            crate::bounds::check_range(&format!("tcpf.magnetic.{f}"), v, lo, hi)?;
+        }
+        Ok(())
+    }
 }
 
 /// Anchors: the k reference scans of the radio map closest to the phone's
@@ -306,6 +356,7 @@ impl Default for TcpfConfig {
             likelihood: LikelihoodConfig::default(),
             offset: OffsetConfig::default(),
             anchors: AnchorConfig::default(),
+            magnetic: MagneticConfig::default(),
         }
     }
 }
@@ -439,6 +490,7 @@ impl TcpfConfig {
         }
         self.likelihood.validate()?;
         self.anchors.validate()?;
+        self.magnetic.validate()?;
         self.offset.validate()
     }
 

@@ -102,6 +102,8 @@ pub struct TcpfCounts {
     /// Anchor queries whose candidates were dropped as too far from the
     /// phone's window (`anchors.drop_far_db`).
     pub anchors_dropped_far: u64,
+    /// Fusion runs that weighed the particles by the magnetic map.
+    pub magnetic_updates: u64,
 }
 
 /// One candidate place of the reference-scan query, with its weight
@@ -267,6 +269,10 @@ impl RadioModel for WithCells<'_> {
     fn reference_scans(&self) -> Option<&crate::radio::reference_scans::ReferenceScans> {
         self.model.reference_scans()
     }
+
+    fn magnetic(&self) -> Option<&crate::radio::magnetic_map::MagneticMap> {
+        self.model.magnetic()
+    }
 }
 
 /// The tightly coupled radio-likelihood particle filter.
@@ -346,6 +352,11 @@ pub struct TcpfEngine {
     beacon_floors: usize,
     ble_period_ns: i64,
     fusion_period_ns: i64,
+    /// Sum and count of the magnetometer's |B| since the last fusion task.
+    mag_sum_ut: f64,
+    mag_n: u32,
+    /// The phone's |B| offset against the magnetic map, uT.
+    mag_offset_ut: f64,
     stats: EngineStats,
     pub counts: TcpfCounts,
 }
@@ -460,6 +471,9 @@ impl TcpfEngine {
                 .len(),
             ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
+            mag_sum_ut: 0.0,
+            mag_n: 0,
+            mag_offset_ut: 0.0,
             stats: EngineStats::default(),
             counts: TcpfCounts::default(),
             model,
@@ -475,6 +489,11 @@ impl TcpfEngine {
     /// The radio model the engine weighs with.
     pub fn model(&self) -> &dyn RadioModel {
         self.model.as_ref()
+    }
+
+    /// The phone's |B| offset against the magnetic map, uT.
+    pub fn magnetic_offset_ut(&self) -> f64 {
+        self.mag_offset_ut
     }
 
     /// The phone RSSI offset estimate and its sd, dB.
@@ -936,6 +955,51 @@ impl TcpfEngine {
         }
         self.anchor_reseed(anchors, floor, support);
         self.update_floor(t_ns, meas, anchors);
+    }
+
+    /// Weighs the particles by the magnetic map at each against the
+    /// task's mean |B| `b_ut` less the phone offset (`tcpf.magnetic`); a
+    /// particle where the map has no value gets the valued ones' weighted
+    /// mean (no evidence either way). Then moves the offset toward the
+    /// cloud's mean residual.
+    fn magnetic_update(&mut self, b_ut: f64) {
+        let model = Arc::clone(&self.model);
+        let Some(map) = model.magnetic().filter(|m| m.has_floor(self.floor)) else {
+            return;
+        };
+        let mc = &self.cfg.magnetic;
+        let (nu, extra2) = (mc.nu, mc.extra_sd_ut * mc.extra_sd_ut);
+        let mut log_l = std::mem::take(&mut self.log_l);
+        log_l.clear();
+        let (mut wsum, mut lsum, mut rsum) = (0.0, 0.0, 0.0);
+        for (p, w) in self.pf.particles().iter().zip(self.pf.weights()) {
+            match map.sample(self.floor, *p) {
+                Some((mu, sd)) => {
+                    let s2 = sd * sd + extra2;
+                    let r = b_ut - self.mag_offset_ut - mu;
+                    let l = -0.5 * (nu + 1.0) * (r * r / (nu * s2)).ln_1p() - 0.5 * s2.ln();
+                    log_l.push(l);
+                    wsum += w;
+                    lsum += w * l;
+                    rsum += w * (b_ut - mu);
+                }
+                None => log_l.push(f64::NAN),
+            }
+        }
+        if wsum > 0.0 {
+            let fill = lsum / wsum;
+            let weight = mc.weight;
+            for l in log_l.iter_mut() {
+                *l = weight * if l.is_nan() { fill } else { *l };
+            }
+            self.pf.weight_log(&log_l);
+            self.pf.resample_if_degenerate();
+            self.counts.magnetic_updates += 1;
+            let innovation = (rsum / wsum - self.mag_offset_ut).clamp(-10.0, 10.0);
+            self.mag_offset_ut = (self.mag_offset_ut + mc.offset_gain * innovation)
+                .clamp(-mc.max_offset_ut, mc.max_offset_ut);
+        }
+        self.log_l = log_l;
     }
 
     /// Whether the phone is far from the survey: the model has reference
@@ -1418,11 +1482,20 @@ impl TcpfEngine {
             }
             return;
         }
+        let mut stepped = false;
         for s in &steps {
             if s.length_m.is_finite() && s.yaw_rad.is_finite() && s.length_m >= 0.0 {
                 self.stats.steps += 1;
                 self.step(s.length_m, s.yaw_rad);
+                stepped = true;
             }
+        }
+        let (mag_sum, mag_n) = (self.mag_sum_ut, self.mag_n);
+        (self.mag_sum_ut, self.mag_n) = (0.0, 0);
+        // a walker standing still reads the same place again and again:
+        // the field weighs only after steps
+        if stepped && mag_n > 0 && self.cfg.magnetic.weight > 0.0 {
+            self.magnetic_update(mag_sum / f64::from(mag_n));
         }
         if let Some(RadioSet {
             meas,
@@ -1449,6 +1522,13 @@ impl Engine for TcpfEngine {
             && p.is_finite()
         {
             self.floors.on_pressure(event.t_ns, p);
+        }
+        if let SensorData::Magnetometer(b) = event.data {
+            let ut = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+            if ut.is_finite() && ut < 1000.0 {
+                self.mag_sum_ut += ut;
+                self.mag_n += 1;
+            }
         }
         self.pdr.on_sensor(event);
     }

@@ -101,6 +101,20 @@ fn open_cfg() -> RadioMapConfig {
     }
 }
 
+/// A 40 x 30 m open floor with `beacons` (path loss -59 dBm at 1 m,
+/// exponent 2).
+fn open_site(beacons: &[(f64, f64)]) -> Arc<Site> {
+    beacon_site(
+        "rm",
+        vec![open_map(40, 30)],
+        beacons,
+        crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        },
+    )
+}
+
 fn lines_survey(n_tx: usize, f: Field<'_>) -> Vec<Vec<LogEvent>> {
     (0..2)
         .map(|w| survey_walk(w, &zigzag(&[6.0, 12.0, 18.0, 24.0]), n_tx, f))
@@ -109,15 +123,7 @@ fn lines_survey(n_tx: usize, f: Field<'_>) -> Vec<Vec<LogEvent>> {
 
 #[test]
 fn smooths_between_walked_lines_with_a_larger_spread_off_them() {
-    let site = beacon_site(
-        "rm",
-        vec![open_map(40, 30)],
-        &[],
-        crate::ble::pathloss::PathLoss {
-            rssi_1m_dbm: -59.0,
-            exponent: 2.0,
-        },
-    );
+    let site = open_site(&[]);
     let (m, rep) = build(&site, &lines_survey(1, &field), &open_cfg());
     assert_eq!(rep.len(), 1);
     assert!(rep[0].rejected.is_none(), "{rep:?}");
@@ -204,15 +210,7 @@ fn falls_back_to_the_site_path_loss_model_far_from_the_walks() {
 
 #[test]
 fn rejects_moving_and_rarely_heard_transmitters() {
-    let site = beacon_site(
-        "rm",
-        vec![open_map(40, 30)],
-        &[],
-        crate::ble::pathloss::PathLoss {
-            rssi_1m_dbm: -59.0,
-            exponent: 2.0,
-        },
-    );
+    let site = open_site(&[]);
     // 0: fixed; 1: somewhere else on every walk; 2: heard once
     let f = |walk: usize, k: usize, p: Vec2| match k {
         0 => field(walk, k, p),
@@ -253,15 +251,7 @@ fn rejects_moving_and_rarely_heard_transmitters() {
 
 #[test]
 fn the_file_round_trips_and_bad_files_name_the_field() {
-    let site = beacon_site(
-        "rm",
-        vec![open_map(40, 30)],
-        &[(20.0, 15.0)],
-        crate::ble::pathloss::PathLoss {
-            rssi_1m_dbm: -59.0,
-            exponent: 2.0,
-        },
-    );
+    let site = open_site(&[(20.0, 15.0)]);
     let (m, _) = build(&site, &lines_survey(1, &field), &open_cfg());
     let text = m.to_json().unwrap();
     assert!(text.contains("\"format\":\"fpbp-radio-map\""));
@@ -508,15 +498,7 @@ fn with_magnetometer(logs: &[Vec<LogEvent>]) -> Vec<Vec<LogEvent>> {
 
 #[test]
 fn the_magnetic_section_is_built_from_the_walks_and_round_trips() {
-    let site = beacon_site(
-        "rm",
-        vec![open_map(40, 30)],
-        &[(20.0, 15.0)],
-        crate::ble::pathloss::PathLoss {
-            rssi_1m_dbm: -59.0,
-            exponent: 2.0,
-        },
-    );
+    let site = open_site(&[(20.0, 15.0)]);
     // without magnetometer samples: no section, and a version-2 file
     let (plain, _) = build(&site, &lines_survey(1, &field), &open_cfg());
     assert!(plain.magnetic().is_none());

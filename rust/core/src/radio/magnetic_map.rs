@@ -195,12 +195,7 @@ impl MagneticMapBuilder {
             }
             let stats: Vec<BinStat> = bins
                 .values()
-                .map(|b| BinStat {
-                    pos: b.pos_sum / b.n,
-                    n: b.n,
-                    sum: b.sum,
-                    sum2: b.sum2,
-                })
+                .map(|b| BinStat::of(b.n, b.sum, b.sum2, b.pos_sum))
                 .collect();
             let (n, s1) = stats
                 .iter()

@@ -594,6 +594,19 @@ pub(super) struct BinStat {
     pub sum2: f64,
 }
 
+impl BinStat {
+    /// The stat of a bin's sample count, sums of values and squares, and
+    /// sum of positions (`n` > 0).
+    pub fn of(n: f64, sum: f64, sum2: f64, pos_sum: Vec2) -> Self {
+        BinStat {
+            pos: pos_sum / n,
+            n,
+            sum,
+            sum2,
+        }
+    }
+}
+
 /// How [`smooth_grid`] turns bins into cells (the units are the values':
 /// dB for the radio map, uT for the magnetic one).
 pub(super) struct SmoothParams {
@@ -618,12 +631,7 @@ fn build_grid(
     let stats: Vec<BinStat> = bins
         .values()
         .filter(|b| b.n > 0.0)
-        .map(|b| BinStat {
-            pos: b.pos_sum / b.n,
-            n: b.n,
-            sum: b.sum,
-            sum2: b.sum2,
-        })
+        .map(|b| BinStat::of(b.n, b.sum, b.sum2, b.pos_sum))
         .collect();
     let p = SmoothParams {
         cell_m: cfg.cell_m,

@@ -12,13 +12,17 @@
 //! walk's and the engine's seed (as in `fpbp reproduce`), CONFIG_JSON is
 //! merged over the default engine config (objects recursively). The
 //! environment variable PROFILE_PATCH (JSON) is merged over the walk's
-//! simulator profile.
+//! simulator profile. SURVEY=alternate|with|against: robust-ekf with the
+//! replica's walked survey database (as `fpbp reproduce`; the survey's
+//! settings merged under CONFIG_JSON) instead of its model database.
 
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 use fpbp_cli::json_patch::merge;
-use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task, build_engine};
+use fpbp_core::engine::{
+    Engine, EngineConfig, EngineData, InitialPosition, Task, build_engine_with,
+};
 use fpbp_core::events::{LogEvent, TruthPoint};
 
 fn truth_at(truth: &[TruthPoint], t: i64) -> Option<(f64, f64, Option<i32>)> {
@@ -49,6 +53,13 @@ fn main() -> Result<()> {
         pos[3].as_str(),
     );
     let mut value = serde_json::to_value(EngineConfig::default())?;
+    let survey = std::env::var("SURVEY").ok();
+    if survey.is_some() {
+        merge(
+            &mut value,
+            &serde_json::from_str(fpbp_cli::replica_survey::BMW_SURVEY_CONFIG)?,
+        );
+    }
     if let Some(patch) = pos.get(4) {
         merge(&mut value, &serde_json::from_str(patch).context("config")?);
     }
@@ -95,7 +106,16 @@ fn main() -> Result<()> {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(0.0);
-    let mut e: Box<dyn Engine> = build_engine(engine, site.clone(), &cfg, init)?;
+    let mut data = EngineData::default();
+    if let Some(pattern) = &survey {
+        let pattern = fpbp_cli::replica_survey::parse_pattern(pattern)?;
+        let (set, known, samples) =
+            fpbp_cli::replica_survey::survey_db(paper, &site, &cfg, seed, pattern)?
+                .context("this replica has no survey walks")?;
+        eprintln!("walked survey DB: {known} known points, {samples} samples");
+        data.fingerprints = Some(std::sync::Arc::new(set));
+    }
+    let mut e: Box<dyn Engine> = build_engine_with(engine, site.clone(), &cfg, init, &data)?;
     let periods = Task::ALL.map(|t| e.task_period_ns(t).filter(|p| *p > 0));
     let t0 = sim.events.first().map_or(0, LogEvent::t_ns);
     let mut due = periods.map(|p| p.map(|p| t0 + p));

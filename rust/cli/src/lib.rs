@@ -6,4 +6,5 @@ pub mod json_patch;
 pub mod plan_draw;
 pub mod plot;
 pub mod replica_sites;
+pub mod replica_survey;
 pub mod site_io;

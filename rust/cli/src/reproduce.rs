@@ -15,10 +15,11 @@ use std::sync::Arc;
 
 use anyhow::{Context, bail};
 use fpbp_cli::json_patch::{merge, patched};
-use fpbp_core::engine::{EngineConfig, Task};
+use fpbp_cli::replica_survey::{parse_pattern, survey_db};
+use fpbp_core::engine::{EngineConfig, EngineData, Task};
 use fpbp_core::site::Site;
 use fpbp_sim::SimRequest;
-use fpbp_sim::replica::replica_walks;
+use fpbp_sim::replica::{SurveyPattern, replica_walks};
 use serde::Serialize;
 
 use crate::common::{self, InitMode, LoadedLog, percentile};
@@ -51,6 +52,16 @@ pub struct Args {
     /// are then not the paper set-up's).
     #[arg(long)]
     pub engine_patch: Option<String>,
+    /// Direction of the walked survey's lines (papers with a walked
+    /// fingerprint survey, BMW): `alternate` (the replica's), `with` or
+    /// `against` the test walk (experiments).
+    #[arg(long, default_value = "alternate")]
+    pub survey: String,
+    /// JSON merged over the engine config the walked survey database is
+    /// built with (after `--engine-patch`; e.g. a different BLE front end
+    /// for the survey than for the test walks; experiments).
+    #[arg(long)]
+    pub survey_patch: Option<String>,
 }
 
 /// What a paper figure is.
@@ -91,6 +102,9 @@ pub struct Variant {
     /// JSON merged over the replica's engine config.
     pub config: &'static str,
     pub init: InitMode,
+    /// Use the replica's walked survey database (`fpbp_sim::replica::survey_walks`,
+    /// built per seed) instead of the engine's own model database.
+    pub walked_db: bool,
 }
 
 /// One figure of the paper and where it is printed.
@@ -120,6 +134,20 @@ fn v(label: &'static str, engine: &'static str, config: &'static str, init: Init
         engine,
         config,
         init,
+        walked_db: false,
+    }
+}
+
+/// A variant that uses the replica's walked survey database.
+fn walked(
+    label: &'static str,
+    engine: &'static str,
+    config: &'static str,
+    init: InitMode,
+) -> Variant {
+    Variant {
+        walked_db: true,
+        ..v(label, engine, config, init)
     }
 }
 
@@ -252,9 +280,12 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
         "bmw" => PaperSpec {
             replica: "bmw",
             title: "BMW robust EKF (Table 3)",
-            base_config: "{}",
+            // the walked survey's settings (reference points 0.6 m apart,
+            // known points at the survey lines' ends)
+            base_config: fpbp_cli::replica_survey::BMW_SURVEY_CONFIG,
             variants: vec![
                 v("robust-ekf", "robust-ekf", "{}", Own),
+                walked("robust-ekf, walked DB", "robust-ekf", "{}", Own),
                 v("gml (BLE)", "gml", "{}", Own),
                 v("pdr (MEMS)", "pdr", "{}", Truth),
             ],
@@ -262,6 +293,24 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
                 f("robust-ekf", Stat::Pct(50), 0.60, "Table 3, fusion, 50 %"),
                 f("robust-ekf", Stat::Pct(70), 0.77, "Table 3, fusion, 70 %"),
                 f("robust-ekf", Stat::Pct(90), 1.03, "Table 3, fusion, 90 %"),
+                f(
+                    "robust-ekf, walked DB",
+                    Stat::Pct(50),
+                    0.60,
+                    "Table 3, fusion, 50 %",
+                ),
+                f(
+                    "robust-ekf, walked DB",
+                    Stat::Pct(70),
+                    0.77,
+                    "Table 3, fusion, 70 %",
+                ),
+                f(
+                    "robust-ekf, walked DB",
+                    Stat::Pct(90),
+                    1.03,
+                    "Table 3, fusion, 90 %",
+                ),
                 f("gml (BLE)", Stat::Pct(50), 3.80, "Table 3, BLE, 50 %"),
                 f("gml (BLE)", Stat::Pct(90), 5.26, "Table 3, BLE, 90 %"),
                 f("pdr (MEMS)", Stat::Pct(50), 2.29, "Table 3, MEMS, 50 %"),
@@ -467,15 +516,44 @@ pub struct FigureResult {
     pub difference: Option<f64>,
 }
 
+/// Departures from the pinned replica set-up (experiments; all off by default).
+#[derive(Debug, Clone, Copy)]
+pub struct Experiment<'a> {
+    /// JSON merged over every walk's simulator profile.
+    pub profile_patch: Option<&'a str>,
+    /// JSON merged over every variant's engine config.
+    pub engine_patch: Option<&'a str>,
+    /// Direction of the walked survey's lines.
+    pub survey: SurveyPattern,
+    /// JSON merged over the config the walked survey database is built with.
+    pub survey_patch: Option<&'a str>,
+}
+
+impl Default for Experiment<'_> {
+    fn default() -> Self {
+        Experiment {
+            profile_patch: None,
+            engine_patch: None,
+            survey: SurveyPattern::Alternate,
+            survey_patch: None,
+        }
+    }
+}
+
 /// Runs one paper on its replica.
 pub fn reproduce_paper(
     spec: &PaperSpec,
     site: &Arc<Site>,
     seeds: u64,
     duration_scale: f64,
-    profile_patch: Option<&str>,
-    engine_patch: Option<&str>,
+    exp: &Experiment,
 ) -> anyhow::Result<PaperResult> {
+    let Experiment {
+        profile_patch,
+        engine_patch,
+        survey,
+        survey_patch,
+    } = *exp;
     let mut walks = replica_walks(spec.replica)?;
     if let Some(patch) = profile_patch {
         let p: serde_json::Value =
@@ -512,6 +590,29 @@ pub fn reproduce_paper(
         for r in results.iter_mut() {
             r.errors.push(Vec::new());
         }
+        // the walked survey database of this seed, per variant that uses one
+        let mut data: Vec<EngineData> = Vec::with_capacity(spec.variants.len());
+        for var in &spec.variants {
+            let mut d = EngineData::default();
+            if var.walked_db {
+                let mut cfg = config_for(spec, var, seed, engine_patch)?;
+                if let Some(patch) = survey_patch {
+                    let mut value = serde_json::to_value(&cfg)?;
+                    merge(
+                        &mut value,
+                        &serde_json::from_str(patch)
+                            .with_context(|| format!("survey patch {patch}"))?,
+                    );
+                    cfg = EngineConfig::from_json(&value.to_string())
+                        .with_context(|| format!("survey patch {patch}"))?;
+                    cfg.validate()?;
+                }
+                let (set, _, _) = survey_db(spec.replica, site, &cfg, seed, survey)?
+                    .with_context(|| format!("replica {} has no survey walks", spec.replica))?;
+                d.fingerprints = Some(Arc::new(set));
+            }
+            data.push(d);
+        }
         for walk in &walks {
             let req = SimRequest {
                 duration_s: (walk.duration_s * duration_scale).max(5.0),
@@ -531,7 +632,7 @@ pub fn reproduce_paper(
             for (k, var) in spec.variants.iter().enumerate() {
                 let cfg = config_for(spec, var, seed, engine_patch)?;
                 let run = common::run_log(
-                    &common::core_builder,
+                    &common::builder_with(data[k].clone()),
                     var.engine,
                     site,
                     &cfg,
@@ -671,6 +772,16 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     } else {
         vec![args.paper.as_str()]
     };
+    let survey = parse_pattern(&args.survey)?;
+    if let Some(p) = &args.survey_patch {
+        println!("survey config patch (not the replica's survey): {p}");
+    }
+    if survey != SurveyPattern::Alternate {
+        println!(
+            "survey lines {} the test walk (not the pinned replica)",
+            args.survey
+        );
+    }
     let maps = crate::demo::resolve(&args.maps);
     let started = std::time::Instant::now();
     if let Some(p) = &args.profile_patch {
@@ -690,8 +801,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             &site,
             args.seeds,
             args.duration_scale,
-            args.profile_patch.as_deref(),
-            args.engine_patch.as_deref(),
+            &Experiment {
+                profile_patch: args.profile_patch.as_deref(),
+                engine_patch: args.engine_patch.as_deref(),
+                survey,
+                survey_patch: args.survey_patch.as_deref(),
+            },
         )?;
         let dir = args.out.join(spec.replica);
         std::fs::create_dir_all(&dir)

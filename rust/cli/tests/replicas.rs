@@ -142,6 +142,50 @@ fn tiny_reproduce_all_runs_every_paper() {
     std::fs::remove_dir_all(&out).ok();
 }
 
+/// The BMW replica's walked survey (fpbp_sim::replica::survey_walks): four
+/// rings 0.6 m apart on each floor, known points only at the survey lines'
+/// ends, reference points in the corridor band on both floors.
+#[test]
+fn bmw_walked_survey_covers_the_corridor_on_both_floors() {
+    use fpbp_cli::json_patch::merge;
+    use fpbp_cli::replica_survey::{BMW_SURVEY_CONFIG, survey_db};
+    use fpbp_core::engine::EngineConfig;
+    use fpbp_sim::replica::SurveyPattern;
+    let site = fpbp_cli::site_io::load_site(&repo().join("maps/replica-bmw/site.json")).unwrap();
+    let mut value = serde_json::to_value(EngineConfig::default()).unwrap();
+    merge(
+        &mut value,
+        &serde_json::from_str(BMW_SURVEY_CONFIG).unwrap(),
+    );
+    let cfg = EngineConfig::from_json(&value.to_string()).unwrap();
+    let (set, known, samples) = survey_db("bmw", &site, &cfg, 1, SurveyPattern::Alternate)
+        .unwrap()
+        .unwrap();
+    // 20 lines and 3 ring changes per floor: a few dozen known points, not 10 Hz truth
+    assert!((40..=80).contains(&known), "{known} known points");
+    assert!(samples > 900, "{samples} samples");
+    assert_eq!(set.floors.keys().copied().collect::<Vec<_>>(), vec![0, 1]);
+    for (floor, f) in &set.floors {
+        let n = f.db.points.len();
+        assert!((300..=520).contains(&n), "floor {floor}: {n} points");
+        for p in &f.db.points {
+            let (x, y) = (p.pos.x, p.pos.y);
+            let in_band = (1.3..=32.7).contains(&x)
+                && (1.3..=14.7).contains(&y)
+                && !((4.7..=29.3).contains(&x) && (4.7..=11.3).contains(&y));
+            assert!(
+                in_band,
+                "floor {floor}: point ({x:.2}, {y:.2}) off the corridor"
+            );
+        }
+    }
+    assert!(
+        survey_db("tc", &site, &cfg, 1, SurveyPattern::Alternate)
+            .unwrap()
+            .is_none()
+    );
+}
+
 /// `walk.waypoints_m`: the simulated walker follows the course, corner
 /// after corner, within half a metre (the proximity-PF course).
 #[test]

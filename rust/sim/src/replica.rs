@@ -29,6 +29,7 @@ pub const REPLICA_PROFILE_NAMES: &[&str] = &[
     "replica-prox-pf-1",
     "replica-ppsa-1",
     "replica-bmw-1",
+    "replica-bmw-survey",
     "replica-tc-1",
     "replica-tc-2",
 ];
@@ -249,15 +250,101 @@ pub fn replica_walks(paper: &str) -> Result<Vec<ReplicaWalk>> {
     Ok(walks)
 }
 
+/// The direction of a survey's lines relative to the replica's test walk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SurveyPattern {
+    /// Every other line in the test walk's direction (a surveyor walking the
+    /// lines back and forth; the replica's survey).
+    Alternate,
+    /// Every line in the test walk's direction.
+    WithTest,
+    /// Every line against it.
+    AgainstTest,
+}
+
+/// One survey walk of a replica: a profile walked on `floor`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SurveyWalk {
+    /// Profile name (`replica-<paper>-survey`), accepted by [`SimProfile::named`].
+    pub name: &'static str,
+    pub floor: i32,
+    pub duration_s: f64,
+    pub profile: SimProfile,
+}
+
+/// The BMW survey walker's gait: one step frequency, 1.8 Hz, and the
+/// simulator's step length at it (0.65 m), i.e. about 1.17 m/s, so that the
+/// walk's length in time is known.
+const SURVEY_STEP_HZ: f64 = 1.8;
+
+/// The walked fingerprint survey of replica `paper` (BMW Sec. 3.2.1: the
+/// surveyor walks straight lines between labelled start and end points; the
+/// reference points are 0.6 m apart, Sec. 4), one walk per floor, or
+/// nothing when the paper surveyed no fingerprints. BMW: the corridor loop
+/// (2.4 m wide) walked as four rings 0.6 m apart (0.3, 0.9, 1.5 and 2.1 m
+/// from the outer wall, i.e. the centre lines of the 0.6 m reference-point
+/// rows), each ring four straight lines, on both floors, the rings' direction
+/// by `pattern`; the same phone and anchors as the test walk; no dwell (the
+/// paper's survey is walked). Choices where the paper is silent:
+/// docs/reproduction.md "robust-ekf (BMW)".
+pub fn survey_walks(paper: &str, pattern: SurveyPattern) -> Result<Vec<SurveyWalk>> {
+    if paper != "bmw" {
+        replica_walks(paper)?;
+        return Ok(Vec::new());
+    }
+    let test = replica_walks("bmw")?.remove(0).profile;
+    let (x0, y0, x1, y1) = (1.8, 1.8, 32.2, 14.2);
+    let mut route: Vec<[f64; 2]> = Vec::new();
+    for (k, d) in [0.3, 0.9, 1.5, 2.1].into_iter().enumerate() {
+        let (a, b, c, e) = (x0 + d, y0 + d, x1 - d, y1 - d);
+        // the test walk's direction: east along the lower corridor, north, west
+        let with = [[a, b], [c, b], [c, e], [a, e], [a, b]];
+        let against = [[a, b], [a, e], [c, e], [c, b], [a, b]];
+        let along = match pattern {
+            SurveyPattern::Alternate => k % 2 == 0,
+            SurveyPattern::WithTest => true,
+            SurveyPattern::AgainstTest => false,
+        };
+        route.extend_from_slice(if along { &with } else { &against });
+    }
+    let length_m: f64 = route
+        .windows(2)
+        .map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1]))
+        .sum();
+    let mut p = course("replica-bmw-survey", &route);
+    p.ble = test.ble.clone();
+    p.walk.step_freq_min_hz = SURVEY_STEP_HZ;
+    p.walk.step_freq_max_hz = SURVEY_STEP_HZ;
+    let step_m = 0.5 * (p.walk.step_len_at_min_freq_m + p.walk.step_len_at_max_freq_m);
+    // one pass: the corners are cut (the walk is a little shorter), so stop at 98 %
+    let duration_s = p.walk.initial_still_s + 0.98 * length_m / (SURVEY_STEP_HZ * step_m);
+    Ok([0, 1]
+        .into_iter()
+        .map(|floor| SurveyWalk {
+            name: "replica-bmw-survey",
+            floor,
+            duration_s,
+            profile: p.clone(),
+        })
+        .collect())
+}
+
 /// The profile of replica walk `name` (one of [`REPLICA_PROFILE_NAMES`]).
 pub fn replica_profile(name: &str) -> Option<SimProfile> {
     let rest = name.strip_prefix("replica-")?;
     let (paper, _) = rest.rsplit_once('-')?;
-    replica_walks(paper)
+    let walk = replica_walks(paper)
         .ok()?
         .into_iter()
         .find(|w| w.name == name)
-        .map(|w| w.profile)
+        .map(|w| w.profile);
+    walk.or_else(|| {
+        survey_walks(paper, SurveyPattern::Alternate)
+            .ok()?
+            .into_iter()
+            .find(|w| w.name == name)
+            .map(|w| w.profile)
+    })
 }
 
 #[cfg(test)]
@@ -293,6 +380,16 @@ mod tests {
                 let json = serde_json::to_string(&w.profile).unwrap();
                 lines.push(format!("{} {} {:016x}", w.name, w.duration_s, fnv(&json)));
             }
+            for w in survey_walks(paper, SurveyPattern::Alternate).unwrap() {
+                let json = serde_json::to_string(&w.profile).unwrap();
+                lines.push(format!(
+                    "{} floor {} {:.1} {:016x}",
+                    w.name,
+                    w.floor,
+                    w.duration_s,
+                    fnv(&json)
+                ));
+            }
         }
         let got = lines.join("\n");
         let want = "\
@@ -302,6 +399,8 @@ replica-fpbp-3 90 61492a3dca43f739
 replica-prox-pf-1 70 737df03a7edd4ca5
 replica-ppsa-1 60 b2707769aca87b4b
 replica-bmw-1 90 a90c81baf8c119a8
+replica-bmw-survey floor 0 259.8 a457cca25969e50a
+replica-bmw-survey floor 1 259.8 a457cca25969e50a
 replica-tc-1 170 af7afc4b5160c74d
 replica-tc-2 170 a8b138230a11bc00";
         assert_eq!(got, want, "a replica walk changed:\n{got}");

@@ -64,6 +64,14 @@ pub struct FingerprintConfig {
     /// from every surveyed cell are added (the path-loss model covers what
     /// the survey did not walk), metres; 0 = survey points only. Default 0.
     pub survey_model_fill_m: f64,
+    /// Survey builder: which truth points of a log are known points. 0 =
+    /// every one (a surveyor whose position is known throughout); > 0 =
+    /// only the vertices of the truth track simplified to straight lines
+    /// within this tolerance (Douglas-Peucker), i.e. the start and end of
+    /// each straight survey line, the points the BMW paper's surveyor
+    /// labels (Sec. 3.2.1, Fig. 3); the positions between come from the
+    /// PDR with eq. 3's compensation. Metres. Default 0.
+    pub survey_line_tolerance_m: f64,
 }
 
 impl Default for FingerprintConfig {
@@ -83,6 +91,7 @@ impl Default for FingerprintConfig {
             survey_cell_m: 1.0,
             survey_max_segment_s: 60.0,
             survey_model_fill_m: 0.0,
+            survey_line_tolerance_m: 0.0,
         }
     }
 }
@@ -142,6 +151,9 @@ impl FingerprintConfig {
         }
         if !(self.survey_model_fill_m.is_finite() && self.survey_model_fill_m >= 0.0) {
             return bad("survey_model_fill_m", "must be finite and >= 0");
+        }
+        if !(self.survey_line_tolerance_m.is_finite() && self.survey_line_tolerance_m >= 0.0) {
+            return bad("survey_line_tolerance_m", "must be finite and >= 0");
         }
         if !(self.outlier_relative_density.is_finite() && self.outlier_relative_density >= 0.0) {
             return bad("outlier_relative_density", "must be finite and >= 0");

@@ -40,6 +40,9 @@ pub struct LogSurvey {
     pub pdr_displacement_m: f64,
     /// PDR steps in the log.
     pub steps: usize,
+    /// Known points used (all truth points, or the line ends with
+    /// `survey_line_tolerance_m`).
+    pub known_points: usize,
 }
 
 impl LogSurvey {
@@ -130,6 +133,10 @@ impl<'a> SurveyBuilder<'a> {
             steps.extend(pdr.take_steps());
         }
         rep.steps = steps.len();
+        if self.cfg.survey_line_tolerance_m > 0.0 {
+            truth = line_ends(&truth, self.cfg.survey_line_tolerance_m);
+        }
+        rep.known_points = truth.len();
         let max_ns = (self.cfg.survey_max_segment_s * 1e9) as i64;
         let single_floor = (self.site.spec.floors.len() == 1).then(|| self.site.default_floor());
         for w in truth.windows(2) {
@@ -273,6 +280,59 @@ fn bin(samples: &[&Sample], cell_m: f64) -> BTreeMap<(i64, i64), Cell> {
         }
     }
     cells
+}
+
+/// The start and end points of the straight lines of a truth track: the
+/// vertices of its Douglas-Peucker simplification within `tol_m` (first and
+/// last always kept; a point whose floor differs from its neighbour's is
+/// kept with that neighbour, so floor changes stay segment ends).
+fn line_ends(truth: &[(i64, Vec2, Option<i32>)], tol_m: f64) -> Vec<(i64, Vec2, Option<i32>)> {
+    let n = truth.len();
+    if n <= 2 {
+        return truth.to_vec();
+    }
+    let mut keep = vec![false; n];
+    keep[0] = true;
+    keep[n - 1] = true;
+    for i in 1..n {
+        if truth[i].2 != truth[i - 1].2 {
+            keep[i] = true;
+            keep[i - 1] = true;
+        }
+    }
+    let anchors: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+    let mut stack: Vec<(usize, usize)> = anchors.windows(2).map(|w| (w[0], w[1])).collect();
+    while let Some((a, b)) = stack.pop() {
+        if b <= a + 1 {
+            continue;
+        }
+        let (pa, pb) = (truth[a].1, truth[b].1);
+        let d = pb - pa;
+        let len = d.norm();
+        let (mut worst, mut at) = (0.0, a);
+        for (i, p) in truth.iter().enumerate().take(b).skip(a + 1) {
+            let r = p.1 - pa;
+            let dist = if len < 1e-9 {
+                r.norm()
+            } else {
+                (d.x * r.y - d.y * r.x).abs() / len
+            };
+            if dist > worst {
+                (worst, at) = (dist, i);
+            }
+        }
+        if worst > tol_m {
+            keep[at] = true;
+            stack.push((a, at));
+            stack.push((at, b));
+        }
+    }
+    truth
+        .iter()
+        .zip(&keep)
+        .filter(|(_, k)| **k)
+        .map(|(t, _)| *t)
+        .collect()
 }
 
 /// Position on the piecewise-linear track through `knots` (time-ordered) at `t`.
@@ -419,6 +479,81 @@ pub(crate) mod tests {
         for p in &f.db.points {
             assert!((p.pos.y - 12.5).abs() < 1e-6 && p.pos.x > 4.0 && p.pos.x < 34.0);
         }
+    }
+
+    #[test]
+    fn line_ends_are_the_corners_of_a_walked_track() {
+        // 10 Hz truth: east 10 m, north 6 m, a 0.1 m wobble; floor 0, then
+        // two points on floor 1
+        let mut truth = Vec::new();
+        let mut t = 0i64;
+        let mut push = |p: Vec2, f: i32| {
+            truth.push((t, p, Some(f)));
+            t += 100_000_000;
+        };
+        for k in 0..=100 {
+            let wobble = if k % 2 == 0 { 0.05 } else { -0.05 };
+            push(Vec2::new(k as f64 * 0.1, 2.0 + wobble), 0);
+        }
+        for k in 1..=60 {
+            push(Vec2::new(10.0, 2.0 + k as f64 * 0.1), 0);
+        }
+        push(Vec2::new(10.0, 8.5), 1);
+        push(Vec2::new(10.0, 9.0), 1);
+        let ends = line_ends(&truth, 0.3);
+        let pts: Vec<(f64, f64, i32)> = ends
+            .iter()
+            .map(|(_, p, f)| (p.x, p.y, f.unwrap()))
+            .collect();
+        // start, the corner (within the wobble), the last point of floor 0
+        // and the two of floor 1
+        assert_eq!(pts.len(), 5, "{pts:?}");
+        assert_eq!(pts[0], (0.0, 2.05, 0));
+        let (cx, cy, cf) = pts[1];
+        assert!(
+            (cx - 10.0).abs() <= 0.11 && (cy - 2.0).abs() <= 0.06 && cf == 0,
+            "{pts:?}"
+        );
+        assert_eq!(&pts[2..], &[(10.0, 8.0, 0), (10.0, 8.5, 1), (10.0, 9.0, 1)]);
+        // tolerance 0 keeps every point off the lines
+        assert!(line_ends(&truth, 0.0).len() > 100);
+    }
+
+    #[test]
+    fn with_a_line_tolerance_only_the_line_ends_are_known_points() {
+        let site = site();
+        let (mut ev, truth) = straight_walk(1.4, 20.0);
+        // dense truth (10 Hz) along the straight walk, as the simulator writes
+        let mut dense: Vec<LogEvent> = (1..200)
+            .map(|k| {
+                let t_ns = k * 100_000_000;
+                let p = truth(t_ns);
+                LogEvent::Truth(TruthPoint {
+                    t_ns,
+                    x_m: p.x,
+                    y_m: p.y,
+                    floor: Some(0),
+                })
+            })
+            .collect();
+        ev.append(&mut dense);
+        ev.sort_by_key(LogEvent::t_ns);
+        let all = SurveyBuilder::new(
+            &site,
+            &BleConfig::default(),
+            &rv_pdr(),
+            &FingerprintConfig::default(),
+        )
+        .add_log(&ev);
+        assert_eq!((all.known_points, all.segments), (201, 200));
+        let cfg = FingerprintConfig {
+            survey_line_tolerance_m: 0.3,
+            ..FingerprintConfig::default()
+        };
+        let mut b = SurveyBuilder::new(&site, &BleConfig::default(), &rv_pdr(), &cfg);
+        let rep = b.add_log(&ev);
+        assert_eq!((rep.known_points, rep.segments), (2, 1));
+        assert_eq!(rep.samples, all.samples);
     }
 
     #[test]

@@ -9,6 +9,8 @@ use crate::radio::LikelihoodConfig;
 use crate::radio::offset::OffsetConfig;
 use crate::radio::reference_scans::ScanMetric;
 
+use super::step_scale::OnlineStepConfig;
+
 /// Settings of engine `tcpf`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -112,6 +114,8 @@ pub struct TcpfConfig {
     pub likelihood: LikelihoodConfig,
     pub offset: OffsetConfig,
     pub anchors: AnchorConfig,
+    /// The user's step length learned online (module `step_scale`).
+    pub online_step: OnlineStepConfig,
 }
 
 /// Anchors: the k reference scans of the radio map closest to the phone's
@@ -306,6 +310,7 @@ impl Default for TcpfConfig {
             likelihood: LikelihoodConfig::default(),
             offset: OffsetConfig::default(),
             anchors: AnchorConfig::default(),
+            online_step: OnlineStepConfig::default(),
         }
     }
 }
@@ -439,6 +444,7 @@ impl TcpfConfig {
         }
         self.likelihood.validate()?;
         self.anchors.validate()?;
+        self.online_step.validate()?;
         self.offset.validate()
     }
 

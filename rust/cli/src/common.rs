@@ -364,6 +364,10 @@ pub struct LogMetrics {
     pub wall_s: f64,
     pub steps: u64,
     pub engine_no_fix_runs: u64,
+    /// The engine's step-length scale at the log's end (engines that
+    /// learn one: `tcpf`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub step_scale: Option<f64>,
     pub read: ReadSummary,
 }
 
@@ -410,6 +414,7 @@ impl EngineMetrics {
                 wall_s: r.out.wall_s,
                 steps: r.out.stats.steps,
                 engine_no_fix_runs: r.out.stats.no_fix,
+                step_scale: r.out.stats.step_scale,
                 read: read.clone(),
             })
             .collect();

@@ -134,6 +134,10 @@ pub struct EngineStats {
     /// model, dB), for engines that estimate one (`tcpf`).
     #[serde(default)]
     pub rssi_offset_db: Option<f64>,
+    /// The factor the engine multiplies the PDR's step lengths by, learned
+    /// online (`tcpf`; 1 when its `online_step` is off).
+    #[serde(default)]
+    pub step_scale: Option<f64>,
 }
 
 impl EngineStats {

@@ -9,6 +9,8 @@ use crate::radio::LikelihoodConfig;
 use crate::radio::offset::OffsetConfig;
 use crate::radio::reference_scans::ScanMetric;
 
+use super::step_scale::OnlineStepConfig;
+
 /// Settings of engine `tcpf`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -113,6 +115,8 @@ pub struct TcpfConfig {
     pub offset: OffsetConfig,
     pub anchors: AnchorConfig,
     pub magnetic: MagneticConfig,
+    /// The user's step length learned online (module `step_scale`).
+    pub online_step: OnlineStepConfig,
 }
 
 /// The magnetic likelihood: with a radio map that carries the survey's
@@ -357,6 +361,7 @@ impl Default for TcpfConfig {
             offset: OffsetConfig::default(),
             anchors: AnchorConfig::default(),
             magnetic: MagneticConfig::default(),
+            online_step: OnlineStepConfig::default(),
         }
     }
 }
@@ -491,6 +496,7 @@ impl TcpfConfig {
         self.likelihood.validate()?;
         self.anchors.validate()?;
         self.magnetic.validate()?;
+        self.online_step.validate()?;
         self.offset.validate()
     }
 

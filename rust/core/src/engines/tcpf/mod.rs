@@ -32,11 +32,13 @@
 //! cloud until the walk tells them apart.
 
 pub mod config;
+pub mod step_scale;
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub use config::{AnchorConfig, TcpfConfig};
+pub use step_scale::{OnlineStep, OnlineStepConfig};
 
 use crate::Result;
 use crate::Vec2;
@@ -104,6 +106,8 @@ pub struct TcpfCounts {
     pub anchors_dropped_far: u64,
     /// Fusion runs that weighed the particles by the magnetic map.
     pub magnetic_updates: u64,
+    /// Windows that fed the online step-length scale (`online_step`).
+    pub step_windows: u64,
 }
 
 /// One candidate place of the reference-scan query, with its weight
@@ -311,6 +315,12 @@ pub struct TcpfEngine {
     ble_active: bool,
     wifi_active: bool,
     offset: PhoneOffset,
+    /// The user's step length learned online (`online_step`).
+    online_step: OnlineStep,
+    /// The counters that say the cloud moved other than by its steps and
+    /// the radio, at the last fusion run (the online step scale skips
+    /// stretches across such a move).
+    jump_key: u64,
     monitor: LikelihoodMonitor,
     floor: i32,
     /// Consecutive radio votes for another floor (no barometer).
@@ -441,6 +451,8 @@ impl TcpfEngine {
             ble_active: false,
             wifi_active: false,
             offset: PhoneOffset::new(&cfg.offset),
+            online_step: OnlineStep::new(&cfg.online_step),
+            jump_key: 0,
             monitor: LikelihoodMonitor::default(),
             floor: start_floor,
             other_floor: None,
@@ -501,6 +513,12 @@ impl TcpfEngine {
         (self.offset.mean_db(), self.offset.sd_db())
     }
 
+    /// The online step-length scale every PDR step is multiplied by
+    /// (1 with `online_step` off).
+    pub fn step_scale(&self) -> f64 {
+        self.online_step.scale()
+    }
+
     /// Particle positions and weights (plots, tests).
     pub fn particles(&self) -> (&[Vec2], &[f64]) {
         (self.pf.particles(), self.pf.weights())
@@ -524,6 +542,7 @@ impl TcpfEngine {
         };
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
+        self.online_step.drop_window();
         self.draw_offsets_from_belief();
         self.monitor.reset();
         self.published = Some(p);
@@ -758,8 +777,9 @@ impl TcpfEngine {
         true
     }
 
-    /// One step of every particle, with the wall check.
-    fn step(&mut self, length_m: f64, yaw_rad: f64) {
+    /// One step of every particle, with the wall check; the share of the
+    /// particles the walls stopped.
+    fn step(&mut self, length_m: f64, yaw_rad: f64) -> f64 {
         let site = Arc::clone(&self.site);
         let map = site.floor(self.floor);
         if map.is_some() {
@@ -768,6 +788,7 @@ impl TcpfEngine {
         }
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
+        let mut frac = 0.0;
         if let Some(m) = map {
             m.crosses_wall_each(
                 &self.before,
@@ -776,7 +797,7 @@ impl TcpfEngine {
                 &mut self.crossed,
             );
             let n = self.crossed.iter().filter(|c| **c).count();
-            let frac = n as f64 / self.crossed.len().max(1) as f64;
+            frac = n as f64 / self.crossed.len().max(1) as f64;
             self.kill_ema += 0.1 * (frac - self.kill_ema);
             if n == self.crossed.len() {
                 // every hypothesis hit a wall (an unmapped door, a bad
@@ -789,6 +810,7 @@ impl TcpfEngine {
             }
         }
         self.pf.resample_if_degenerate();
+        frac
     }
 
     /// Weighs the particles with one measurement set, updates the phone
@@ -1483,10 +1505,12 @@ impl TcpfEngine {
             return;
         }
         let mut stepped = false;
+        let scale = self.online_step.scale();
         for s in &steps {
             if s.length_m.is_finite() && s.yaw_rad.is_finite() && s.length_m >= 0.0 {
                 self.stats.steps += 1;
-                self.step(s.length_m, s.yaw_rad);
+                let kill = self.step(s.length_m * scale, s.yaw_rad);
+                self.online_step.on_step(s.length_m, s.yaw_rad, kill);
                 stepped = true;
             }
         }
@@ -1507,7 +1531,23 @@ impl TcpfEngine {
             self.last_radio_t_ns = Some(t_ns);
             self.radio_update(t_ns, &meas, &missing, &anchors);
         }
+        self.learn_step_scale();
         self.publish(t_ns);
+    }
+
+    /// Feeds the online step scale the cloud after this fusion run: its
+    /// mean and spread, and whether it was moved other than by the steps
+    /// and the radio (started, re-seeded, changed floor, a step undone).
+    fn learn_step_scale(&mut self) {
+        let c = &self.counts;
+        let key =
+            c.global_starts + c.reseeded + c.anchor_reseeded + c.floor_changes + c.steps_blocked;
+        let jumped = key != self.jump_key;
+        self.jump_key = key;
+        let before = self.online_step.windows;
+        self.online_step
+            .on_fusion(self.pf.mean(), self.pf.spread_m(), jumped);
+        self.counts.step_windows += self.online_step.windows - before;
     }
 }
 
@@ -1617,6 +1657,7 @@ impl Engine for TcpfEngine {
     fn stats(&self) -> EngineStats {
         let mut s = self.stats.clone();
         s.rssi_offset_db = Some(self.offset.mean_db());
+        s.step_scale = Some(self.online_step.scale());
         s
     }
 }

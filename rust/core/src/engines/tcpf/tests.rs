@@ -55,6 +55,8 @@ fn learns_a_phone_offset_and_reports_it() {
     let out = run(&ev, None, &EngineConfig::default());
     let o = out.stats.rssi_offset_db.expect("tcpf reports its offset");
     assert!((o + 9.0).abs() < 2.5, "offset {o:.2} dB");
+    // and its step scale, 1 with `online_step` off (the default)
+    assert_eq!(out.stats.step_scale, Some(1.0));
     let err = mean_error(&out);
     assert!(err < 4.5, "mean error {err:.2} m");
     // each particle with its own offset

@@ -118,18 +118,15 @@ impl MagneticMap {
         &self.grids
     }
 
+    /// The grid of `floor`, if the survey gave it one.
+    pub fn grid(&self, floor: i32) -> Option<&Grid> {
+        self.grids.iter().find(|g| g.floor == floor)
+    }
+
     /// (mean, sd) of |B| at `p` on `floor`, uT; `None` where the survey
     /// says nothing.
     pub fn sample(&self, floor: i32, p: Vec2) -> Option<(f64, f64)> {
-        self.grids
-            .iter()
-            .find(|g| g.floor == floor)
-            .and_then(|g| g.sample(p))
-    }
-
-    /// Whether `floor` has a grid.
-    pub fn has_floor(&self, floor: i32) -> bool {
-        self.grids.iter().any(|g| g.floor == floor)
+        self.grid(floor).and_then(|g| g.sample(p))
     }
 }
 

@@ -986,7 +986,7 @@ impl TcpfEngine {
     /// cloud's mean residual.
     fn magnetic_update(&mut self, b_ut: f64) {
         let model = Arc::clone(&self.model);
-        let Some(map) = model.magnetic().filter(|m| m.has_floor(self.floor)) else {
+        let Some(grid) = model.magnetic().and_then(|m| m.grid(self.floor)) else {
             return;
         };
         let mc = &self.cfg.magnetic;
@@ -995,7 +995,7 @@ impl TcpfEngine {
         log_l.clear();
         let (mut wsum, mut lsum, mut rsum) = (0.0, 0.0, 0.0);
         for (p, w) in self.pf.particles().iter().zip(self.pf.weights()) {
-            match map.sample(self.floor, *p) {
+            match grid.sample(*p) {
                 Some((mu, sd)) => {
                     let s2 = sd * sd + extra2;
                     let r = b_ut - self.mag_offset_ut - mu;
@@ -1517,8 +1517,9 @@ impl TcpfEngine {
         let (mag_sum, mag_n) = (self.mag_sum_ut, self.mag_n);
         (self.mag_sum_ut, self.mag_n) = (0.0, 0);
         // a walker standing still reads the same place again and again:
-        // the field weighs only after steps
-        if stepped && mag_n > 0 && self.cfg.magnetic.weight > 0.0 {
+        // the field weighs only after steps (samples are summed only with
+        // `magnetic.weight` > 0)
+        if stepped && mag_n > 0 {
             self.magnetic_update(mag_sum / f64::from(mag_n));
         }
         if let Some(RadioSet {
@@ -1539,6 +1540,9 @@ impl TcpfEngine {
     /// mean and spread, and whether it was moved other than by the steps
     /// and the radio (started, re-seeded, changed floor, a step undone).
     fn learn_step_scale(&mut self) {
+        if !self.cfg.online_step.enabled {
+            return;
+        }
         let c = &self.counts;
         let key =
             c.global_starts + c.reseeded + c.anchor_reseeded + c.floor_changes + c.steps_blocked;
@@ -1563,7 +1567,9 @@ impl Engine for TcpfEngine {
         {
             self.floors.on_pressure(event.t_ns, p);
         }
-        if let SensorData::Magnetometer(b) = event.data {
+        if self.cfg.magnetic.weight > 0.0
+            && let SensorData::Magnetometer(b) = event.data
+        {
             let ut = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
             if ut.is_finite() && ut < 1000.0 {
                 self.mag_sum_ut += ut;

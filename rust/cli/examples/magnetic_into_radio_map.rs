@@ -1,6 +1,7 @@
 //! Adds (or replaces) the `magnetic` section of a radio map file: the
 //! survey's magnetic field learned from the given logs with truth
-//! (`fpbp_core::radio::magnetic_map`, default settings), without
+//! (`fpbp_core::radio::magnetic_map`, the default radio map settings),
+//! without
 //! recomputing the transmitters' grids. `fpbp calibrate --radio-map`
 //! builds the section itself; this serves maps built before it (radio map
 //! version 3) and experiments on fixed radio maps.
@@ -23,8 +24,8 @@ use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
 use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::radio::RadioMap;
+use fpbp_core::radio::RadioMapConfig;
 use fpbp_core::radio::magnetic_map::{MagneticMapBuilder, MagneticMapConfig, valued_cells};
-use fpbp_core::radio::survey::SurveyOptions;
 use fpbp_core::radio::survey_track::{ShapeLimits, pdr_shaped_truth};
 use fpbp_core::site::Site;
 use fpbp_logs::{ReadOptions, read_all};
@@ -59,12 +60,7 @@ fn main() -> Result<()> {
         default_floor: floor.or(single),
         ..ReadOptions::default()
     };
-    let opts = SurveyOptions {
-        default_floor: floor.or(single),
-        max_truth_gap_ns: 20_000_000_000,
-        wifi_max_age_ns: 4_000_000_000,
-        min_rssi_dbm: -100.0,
-    };
+    let opts = RadioMapConfig::default().survey_options(floor.or(single));
     let mut b = MagneticMapBuilder::new(&MagneticMapConfig::default())?;
     let (mut seen, mut placed) = (0, 0);
     for l in &pos[3..] {

@@ -2,8 +2,9 @@
 //! A feasibility check, not an engine: it reads ILC traces with truth
 //! (default ../shared/datasets/ilc/site1/F1), places every calibrated
 //! magnetometer sample (TYPE_MAGNETIC_FIELD, |B| in uT) on the straight line
-//! between the two truth points around it (pairs more than 20 s apart are
-//! skipped), and bins the samples in square cells. It prints:
+//! between the two truth points around it, as `fpbp calibrate --radio-map`
+//! does (`fpbp_core::radio::survey::magnetic_samples`: pairs more than 20 s
+//! apart are skipped), and bins the samples in square cells. It prints:
 //! - within one cell, the spread of the per-walk mean |B| across the walks
 //!   that crossed it (median over cells with at least 2 walks), against the
 //!   spread of the cell means over the floor: how repeatable the field is
@@ -23,7 +24,8 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use fpbp_core::events::{LogEvent, SensorData};
+use fpbp_core::radio::RadioMapConfig;
+use fpbp_core::radio::survey::magnetic_samples;
 use fpbp_logs::{ReadOptions, read_all};
 
 /// Samples of one trace: (x m, y m, |B| uT).
@@ -35,34 +37,13 @@ fn placed_samples(path: &Path) -> Result<Samples> {
         ..ReadOptions::default()
     };
     let (events, _) = read_all(path, &opts).with_context(|| format!("{}", path.display()))?;
-    let truth: Vec<(i64, f64, f64)> = events
-        .iter()
-        .filter_map(|e| e.as_truth().map(|t| (t.t_ns, t.x_m, t.y_m)))
-        .collect();
+    // placed as `fpbp calibrate --radio-map` places them
     let mut out = Vec::new();
-    let mut j = 0;
-    for e in &events {
-        let LogEvent::Sensor(s) = e else { continue };
-        let SensorData::Magnetometer(b) = s.data else {
-            continue;
-        };
-        while j + 1 < truth.len() && truth[j + 1].0 < s.t_ns {
-            j += 1;
-        }
-        if j + 1 >= truth.len() || s.t_ns < truth[j].0 {
-            continue;
-        }
-        let ((t0, x0, y0), (t1, x1, y1)) = (truth[j], truth[j + 1]);
-        if t1 - t0 > 20_000_000_000 || t1 <= t0 {
-            continue;
-        }
-        let a = (s.t_ns - t0) as f64 / (t1 - t0) as f64;
-        out.push((
-            x0 + a * (x1 - x0),
-            y0 + a * (y1 - y0),
-            (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt(),
-        ));
-    }
+    magnetic_samples(
+        &events,
+        &RadioMapConfig::default().survey_options(Some(0)),
+        |_, p, ut| out.push((p.x, p.y, ut)),
+    );
     Ok(out)
 }
 

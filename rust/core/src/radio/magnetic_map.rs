@@ -29,6 +29,11 @@ use crate::bounds::MAX_RADIO_MAP_CELLS;
 use crate::events::LogEvent;
 use crate::{Error, Result};
 
+/// The field's magnitude |B| of a magnetometer sample, uT.
+pub fn magnitude_ut(b: crate::events::Vec3) -> f64 {
+    (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt()
+}
+
 /// Settings of [`MagneticMapBuilder`] (the `magnetic` section of the radio
 /// map settings, `fpbp calibrate --radio-map-config`).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

@@ -118,6 +118,18 @@ impl Default for RadioMapConfig {
 }
 
 impl RadioMapConfig {
+    /// What a survey log's readings and magnetometer samples are placed
+    /// with ([`survey_samples`], [`super::survey::magnetic_samples`]);
+    /// `default_floor` for truth points without one.
+    pub fn survey_options(&self, default_floor: Option<i32>) -> SurveyOptions {
+        SurveyOptions {
+            default_floor,
+            max_truth_gap_ns: (self.max_truth_gap_s * 1e9) as i64,
+            wifi_max_age_ns: (self.wifi_max_age_s * 1e9) as i64,
+            min_rssi_dbm: self.min_rssi_dbm,
+        }
+    }
+
     /// Checks every field's range; errors name `radio_map.<field>`.
     pub fn validate(&self) -> Result<()> {
         use crate::bounds::{MIN_GRID_STEP_M, check_range};
@@ -297,12 +309,8 @@ impl<'a> RadioMapBuilder<'a> {
     pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
         let walk = self.summary.logs;
         self.summary.logs += 1;
-        let opts = SurveyOptions {
-            default_floor: (self.site.spec.floors.len() == 1).then(|| self.site.default_floor()),
-            max_truth_gap_ns: (self.cfg.max_truth_gap_s * 1e9) as i64,
-            wifi_max_age_ns: (self.cfg.wifi_max_age_s * 1e9) as i64,
-            min_rssi_dbm: self.cfg.min_rssi_dbm,
-        };
+        let single = (self.site.spec.floors.len() == 1).then(|| self.site.default_floor());
+        let opts = self.cfg.survey_options(single);
         if let Some(m) = self.magnetic.as_mut() {
             let (seen, placed) = m.add_log(events, &opts);
             self.summary.magnetic_samples += seen;

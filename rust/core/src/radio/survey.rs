@@ -168,7 +168,7 @@ pub fn magnetic_samples(
             && let crate::events::SensorData::Magnetometer(b) = s.data
         {
             seen += 1;
-            let ut = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+            let ut = super::magnetic_map::magnitude_ut(b);
             if !ut.is_finite() {
                 continue;
             }

@@ -1570,7 +1570,7 @@ impl Engine for TcpfEngine {
         if self.cfg.magnetic.weight > 0.0
             && let SensorData::Magnetometer(b) = event.data
         {
-            let ut = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
+            let ut = crate::radio::magnetic_map::magnitude_ut(b);
             if ut.is_finite() && ut < 1000.0 {
                 self.mag_sum_ut += ut;
                 self.mag_n += 1;

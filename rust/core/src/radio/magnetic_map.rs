@@ -29,6 +29,12 @@ use crate::bounds::MAX_RADIO_MAP_CELLS;
 use crate::events::LogEvent;
 use crate::{Error, Result};
 
+/// The strongest field a survey sample may read, uT: the earth's is
+/// 25-65 uT and a building's steel bends it by tens; a phone beside a
+/// magnet reads more, and such samples are left out of the map (its file
+/// refuses means beyond this, `radio_map_file`).
+pub const MAX_FIELD_UT: f64 = 200.0;
+
 /// The field's magnitude |B| of a magnetometer sample, uT.
 pub fn magnitude_ut(b: crate::events::Vec3) -> f64 {
     (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt()
@@ -283,6 +289,39 @@ mod tests {
         // 5 m beside the walk: no value; another floor: none
         assert!(map.sample(0, Vec2::new(20.0, 5.0)).is_none());
         assert!(map.sample(1, Vec2::new(20.0, 0.0)).is_none());
+    }
+
+    #[test]
+    fn a_phone_beside_a_magnet_cannot_push_the_map_out_of_the_files_range() {
+        // two seconds of 900 uT at x = 20 m (a phone held to a speaker)
+        let mut ev = walk(0.0);
+        ev.extend((0..20).map(|k| {
+            LogEvent::Sensor(SensorEvent {
+                t_ns: 20_000_000_000 + k * 100_000_000,
+                data: SensorData::Magnetometer([900.0, 0.0, 0.0]),
+            })
+        }));
+        ev.sort_by_key(LogEvent::t_ns);
+        let cfg = MagneticMapConfig {
+            min_samples: 10,
+            ..MagneticMapConfig::default()
+        };
+        let mut b = MagneticMapBuilder::new(&cfg).unwrap();
+        assert_eq!(
+            b.add_log(&ev, &opts()),
+            (420, 400),
+            "the 20 are seen, not placed"
+        );
+        let map = b.finish().unwrap().0.unwrap();
+        let hi = (MAX_FIELD_UT * 10.0) as i16;
+        for g in map.grids() {
+            assert!(
+                g.mean_dbm_x10
+                    .iter()
+                    .all(|m| *m == NO_VALUE || (0..=hi).contains(m)),
+                "a mean beyond {MAX_FIELD_UT} uT: the radio map reader refuses it"
+            );
+        }
     }
 
     #[test]

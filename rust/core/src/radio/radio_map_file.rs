@@ -391,7 +391,11 @@ fn reference_scans_of(
 /// Range of a transmitter grid's means (0.1 dBm) and of a magnetic one's
 /// (0.1 uT), with the unit for messages.
 const RSSI_RANGE: (i16, i16, &str) = (-2000, 200, "0.1 dBm");
-const MAGNETIC_RANGE: (i16, i16, &str) = (0, 2000, "0.1 uT");
+const MAGNETIC_RANGE: (i16, i16, &str) = (
+    0,
+    (super::magnetic_map::MAX_FIELD_UT * 10.0) as i16,
+    "0.1 uT",
+);
 
 fn check_grid(
     at: &str,

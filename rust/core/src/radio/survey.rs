@@ -156,6 +156,8 @@ pub fn survey_samples(
 /// The calibrated magnetometer samples of one log placed like the radio
 /// readings (truth runs of one floor, no gap over `max_truth_gap_ns`):
 /// `sink(floor, position, |B| uT)` for each; returns (seen, placed).
+/// Samples that are not finite or read more than
+/// [`super::magnetic_map::MAX_FIELD_UT`] are seen but not placed.
 pub fn magnetic_samples(
     events: &[LogEvent],
     opts: &SurveyOptions,
@@ -169,7 +171,7 @@ pub fn magnetic_samples(
         {
             seen += 1;
             let ut = super::magnetic_map::magnitude_ut(b);
-            if !ut.is_finite() {
+            if !(ut.is_finite() && ut <= super::magnetic_map::MAX_FIELD_UT) {
                 continue;
             }
             if let Some((pos, floor)) = position_at(&runs, s.t_ns, opts.max_truth_gap_ns) {

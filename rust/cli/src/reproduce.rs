@@ -407,14 +407,18 @@ pub fn paper_spec(name: &str) -> anyhow::Result<PaperSpec> {
     })
 }
 
+/// The engine config of `var`: the defaults with the paper's base config,
+/// the variant's, then each of `patches` (`--engine-patch`, for a walked
+/// survey `--survey-patch`) merged over them, and `seed`.
 fn config_for(
     spec: &PaperSpec,
     var: &Variant,
     seed: u64,
-    engine_patch: Option<&str>,
+    patches: &[Option<&str>],
 ) -> anyhow::Result<EngineConfig> {
     let mut value = serde_json::to_value(EngineConfig::default())?;
-    for patch in [spec.base_config, var.config, engine_patch.unwrap_or("{}")] {
+    let given = [Some(spec.base_config), Some(var.config)];
+    for patch in given.iter().chain(patches).flatten() {
         let p: serde_json::Value =
             serde_json::from_str(patch).with_context(|| format!("config patch {patch}"))?;
         merge(&mut value, &p);
@@ -595,18 +599,7 @@ pub fn reproduce_paper(
         for var in &spec.variants {
             let mut d = EngineData::default();
             if var.walked_db {
-                let mut cfg = config_for(spec, var, seed, engine_patch)?;
-                if let Some(patch) = survey_patch {
-                    let mut value = serde_json::to_value(&cfg)?;
-                    merge(
-                        &mut value,
-                        &serde_json::from_str(patch)
-                            .with_context(|| format!("survey patch {patch}"))?,
-                    );
-                    cfg = EngineConfig::from_json(&value.to_string())
-                        .with_context(|| format!("survey patch {patch}"))?;
-                    cfg.validate()?;
-                }
+                let cfg = config_for(spec, var, seed, &[engine_patch, survey_patch])?;
                 let (set, _, _) = survey_db(spec.replica, site, &cfg, seed, survey)?
                     .with_context(|| format!("replica {} has no survey walks", spec.replica))?;
                 d.fingerprints = Some(Arc::new(set));
@@ -630,7 +623,7 @@ pub fn reproduce_paper(
                 report: Default::default(),
             };
             for (k, var) in spec.variants.iter().enumerate() {
-                let cfg = config_for(spec, var, seed, engine_patch)?;
+                let cfg = config_for(spec, var, seed, &[engine_patch])?;
                 let run = common::run_log(
                     &common::builder_with(data[k].clone()),
                     var.engine,

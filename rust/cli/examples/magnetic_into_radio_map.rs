@@ -26,7 +26,7 @@ use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::radio::RadioMap;
 use fpbp_core::radio::RadioMapConfig;
 use fpbp_core::radio::magnetic_map::{MagneticMapBuilder, MagneticMapConfig, valued_cells};
-use fpbp_core::radio::survey_track::{ShapeLimits, pdr_shaped_truth};
+use fpbp_core::radio::survey_track::{ShapeLimits, pdr_shaped_truth, with_truth};
 use fpbp_core::site::Site;
 use fpbp_logs::{ReadOptions, read_all};
 
@@ -87,7 +87,8 @@ fn main() -> Result<()> {
 }
 
 /// `events` with their truth points densified along the `pdr` engine's
-/// track started at the first truth point.
+/// track started at the first truth point (as `fpbp calibrate
+/// --survey-track pdr`, which takes its track from the same engine).
 fn pdr_shaped(site: &std::sync::Arc<Site>, events: Vec<LogEvent>) -> Result<Vec<LogEvent>> {
     let truth: Vec<TruthPoint> = events
         .iter()
@@ -114,11 +115,5 @@ fn pdr_shaped(site: &std::sync::Arc<Site>, events: Vec<LogEvent>) -> Result<Vec<
         .map(|p| (p.t_ns, Vec2::new(p.x_m, p.y_m)))
         .collect();
     let (dense, _) = pdr_shaped_truth(&truth, &track, &ShapeLimits::default());
-    let mut out: Vec<LogEvent> = events
-        .into_iter()
-        .filter(|e| !matches!(e, LogEvent::Truth(_)))
-        .chain(dense.into_iter().map(LogEvent::Truth))
-        .collect();
-    out.sort_by_key(LogEvent::t_ns);
-    Ok(out)
+    Ok(with_truth(events, dense))
 }

@@ -18,7 +18,7 @@ use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
-use fpbp_core::radio::survey_track::{ShapeCounts, ShapeLimits, pdr_shaped_truth};
+use fpbp_core::radio::survey_track::{ShapeCounts, ShapeLimits, pdr_shaped_truth, with_truth};
 use fpbp_core::site::SiteSpec;
 use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
 use fpbp_logs::{ReadOptions, read_all};
@@ -280,20 +280,7 @@ fn shaped_events(events: Vec<LogEvent>, run: &LogRun) -> (Vec<LogEvent>, ShapeCo
         .map(|p| (p.t_ns, Vec2::new(p.x_m, p.y_m)))
         .collect();
     let (dense, counts) = pdr_shaped_truth(&truth, &track, &ShapeLimits::default());
-    let mut out = Vec::with_capacity(events.len() + counts.added);
-    let mut dense = dense.into_iter().peekable();
-    for e in events {
-        if matches!(e, LogEvent::Truth(_)) {
-            continue;
-        }
-        let t = e.t_ns();
-        while let Some(p) = dense.next_if(|p| p.t_ns <= t) {
-            out.push(LogEvent::Truth(p));
-        }
-        out.push(e);
-    }
-    out.extend(dense.map(LogEvent::Truth));
-    (out, counts)
+    (with_truth(events, dense), counts)
 }
 
 /// One survey log read for calibration: its events (truth densified with

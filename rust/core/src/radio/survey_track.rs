@@ -17,7 +17,7 @@
 //! Pure: takes the truth and the PDR track, returns the denser truth.
 
 use crate::Vec2;
-use crate::events::TruthPoint;
+use crate::events::{LogEvent, TruthPoint};
 use crate::geometry::{rotate, wrap_angle};
 
 /// When a segment takes the PDR's shape.
@@ -79,6 +79,26 @@ fn track_at(track: &[(i64, Vec2)], t_ns: i64) -> Option<Vec2> {
     let (tb, pb) = *track.get(i)?;
     let f = (t_ns - ta) as f64 / (tb - ta) as f64;
     Some(pa + (pb - pa) * f)
+}
+
+/// `events` (time-ordered) with their truth points replaced by `truth`
+/// (time-sorted, e.g. [`pdr_shaped_truth`]'s), merged in time order (a
+/// truth point goes before the other events of its time).
+pub fn with_truth(events: Vec<LogEvent>, truth: Vec<TruthPoint>) -> Vec<LogEvent> {
+    let mut out = Vec::with_capacity(events.len() + truth.len());
+    let mut truth = truth.into_iter().peekable();
+    for e in events {
+        if matches!(e, LogEvent::Truth(_)) {
+            continue;
+        }
+        let t = e.t_ns();
+        while let Some(p) = truth.next_if(|p| p.t_ns <= t) {
+            out.push(LogEvent::Truth(p));
+        }
+        out.push(e);
+    }
+    out.extend(truth.map(LogEvent::Truth));
+    out
 }
 
 /// `truth` (time-sorted) with extra points between consecutive ones, at

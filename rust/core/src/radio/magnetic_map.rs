@@ -25,7 +25,7 @@ use super::radio_map::{Grid, NO_VALUE};
 use super::radio_map_build::{BinStat, SmoothParams, smooth_grid};
 use super::survey::{SurveyOptions, magnetic_samples};
 use crate::Vec2;
-use crate::bounds::MAX_RADIO_MAP_CELLS;
+use crate::bounds::{MAX_RADIO_MAP_CELLS, check_count, check_range};
 use crate::events::LogEvent;
 use crate::{Error, Result};
 
@@ -95,19 +95,14 @@ impl MagneticMapConfig {
             ("max_sd_ut", self.max_sd_ut, self.min_sd_ut, 100.0),
             ("sd_growth_ut_per_m", self.sd_growth_ut_per_m, 0.0, 50.0),
         ] {
-            if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(Error::Input(format!(
-                    "{prefix}.{f}: {v} outside [{lo}, {hi}]"
-                )));
-            }
+            check_range(&format!("{prefix}.{f}"), v, lo, hi)?;
         }
-        if !(1..=1 << 20).contains(&self.max_cells_per_grid) {
-            return Err(Error::Input(format!(
-                "{prefix}.max_cells_per_grid: {} outside [1, {}]",
-                self.max_cells_per_grid,
-                1 << 20
-            )));
-        }
+        check_count(
+            &format!("{prefix}.max_cells_per_grid"),
+            self.max_cells_per_grid,
+            1,
+            1 << 20,
+        )?;
         Ok(())
     }
 }

@@ -288,24 +288,7 @@ impl RadioMap {
                     },
                 ),
             };
-            let mut grids: Vec<Grid> = Vec::with_capacity(t.grids.len());
-            for (gi, g) in t.grids.iter().enumerate() {
-                let at = format!("{at}.grids[{gi}]");
-                total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
-                if total_cells > MAX_RADIO_MAP_CELLS {
-                    return bad(
-                        format!("{at}.mean_dbm_x10"),
-                        format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
-                    );
-                }
-                grids.push(check_grid(&at, g, &floor_ok, RSSI_RANGE)?);
-                if grids[..gi].iter().any(|o| o.floor == g.floor) {
-                    return bad(
-                        format!("{at}.floor"),
-                        format!("a second grid for floor {}", g.floor),
-                    );
-                }
-            }
+            let grids = check_grids(&at, &t.grids, &floor_ok, RSSI_RANGE, &mut total_cells)?;
             tx.push(Transmitter {
                 id,
                 kind,
@@ -326,24 +309,13 @@ impl RadioMap {
             map.set_reference_scans(reference_scans_of(r, &floor_ok)?);
         }
         if let Some(m) = &file.magnetic {
-            let mut grids: Vec<Grid> = Vec::with_capacity(m.grids.len().min(64));
-            for (gi, g) in m.grids.iter().enumerate() {
-                let at = format!("magnetic.grids[{gi}]");
-                total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
-                if total_cells > MAX_RADIO_MAP_CELLS {
-                    return bad(
-                        format!("{at}.mean_dbm_x10"),
-                        format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
-                    );
-                }
-                if grids.iter().any(|o| o.floor == g.floor) {
-                    return bad(
-                        format!("{at}.floor"),
-                        format!("a second grid for floor {}", g.floor),
-                    );
-                }
-                grids.push(check_grid(&at, g, &floor_ok, MAGNETIC_RANGE)?);
-            }
+            let grids = check_grids(
+                "magnetic",
+                &m.grids,
+                &floor_ok,
+                MAGNETIC_RANGE,
+                &mut total_cells,
+            )?;
             map.set_magnetic(Some(MagneticMap::new(grids)));
         }
         Ok(map)
@@ -386,6 +358,38 @@ fn reference_scans_of(
         );
     }
     ReferenceScans::new(r.config, ids, r.scans.clone())
+}
+
+/// The checked `grids` of the section at `at` (`at.grids[i]`): each by
+/// [`check_grid`], at most one per floor, and their cells added to
+/// `total_cells`, which may not pass [`MAX_RADIO_MAP_CELLS`].
+fn check_grids(
+    at: &str,
+    grids: &[Grid],
+    floor_ok: &dyn Fn(i32) -> bool,
+    range: (i16, i16, &str),
+    total_cells: &mut usize,
+) -> Result<Vec<Grid>> {
+    let mut out: Vec<Grid> = Vec::with_capacity(grids.len());
+    for (gi, g) in grids.iter().enumerate() {
+        let at = format!("{at}.grids[{gi}]");
+        *total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
+        if *total_cells > MAX_RADIO_MAP_CELLS {
+            return bad(
+                format!("{at}.mean_dbm_x10"),
+                format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
+            );
+        }
+        let checked = check_grid(&at, g, floor_ok, range)?;
+        if out.iter().any(|o| o.floor == g.floor) {
+            return bad(
+                format!("{at}.floor"),
+                format!("a second grid for floor {}", g.floor),
+            );
+        }
+        out.push(checked);
+    }
+    Ok(out)
 }
 
 /// Range of a transmitter grid's means (0.1 dBm) and of a magnetic one's

@@ -14,7 +14,7 @@ use fpbp_core::Vec2;
 use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engine::{EngineConfig, build_engine};
-use fpbp_core::events::{LogEvent, TruthPoint};
+use fpbp_core::events::{LogEvent, SensorData, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
@@ -348,11 +348,11 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
         if args.radio_map.is_some() {
-            // the map reads radio and truth only: the sensor samples (most
-            // of a log) are not kept across the logs
+            // the map reads radio, truth and the magnetometer only: the
+            // other sensor samples (most of a log) are not kept across the
+            // logs
             let mut events = events;
-            events
-                .retain(|e| matches!(e, LogEvent::Ble(_) | LogEvent::Wifi(_) | LogEvent::Truth(_)));
+            events.retain(radio_map_reads);
             events.shrink_to_fit();
             radio_map_logs.push((l.clone(), events));
         }
@@ -585,6 +585,18 @@ fn nearest_non_wall(map: &FloorMap, p: Vec2, max_m: f64) -> Option<Vec2> {
         }
     }
     best.map(|(_, q)| q)
+}
+
+/// The events `fpbp calibrate --radio-map` keeps of each survey log for the
+/// radio map: radio readings, truth, and the magnetometer samples its
+/// magnetic section is learned from (every other sensor sample is dropped
+/// so the survey's logs fit in memory together).
+fn radio_map_reads(e: &LogEvent) -> bool {
+    match e {
+        LogEvent::Ble(_) | LogEvent::Wifi(_) | LogEvent::Truth(_) => true,
+        LogEvent::Sensor(s) => matches!(s.data, SensorData::Magnetometer(_)),
+        LogEvent::Gnss(_) => false,
+    }
 }
 
 #[cfg(test)]

@@ -1,0 +1,59 @@
+//! `fpbp calibrate --radio-map` end to end on a shipped log with truth:
+//! the written radio map carries the survey's magnetic field (stop 32's
+//! map learned none from `calibrate`, which dropped the magnetometer
+//! samples with the other sensors before building the map).
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+#[test]
+fn calibrate_writes_the_magnetic_section_of_a_survey_with_a_magnetometer() {
+    let dir = std::env::temp_dir().join(format!("fpbp-calib-rm-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (site, map) = (dir.join("site.json"), dir.join("radio-map.json"));
+    let out = Command::new(env!("CARGO_BIN_EXE_fpbp"))
+        .arg("calibrate")
+        .arg("--site")
+        .arg(repo().join("maps/demo/site.json"))
+        .arg("--logs")
+        .arg(repo().join("host-tests/logs/demo-walk-1.log.gz"))
+        .arg(repo().join("host-tests/logs/demo-walk-2.log.gz"))
+        .args(["--split", "all", "--out"])
+        .arg(&site)
+        .arg("--radio-map")
+        .arg(&map)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "calibrate failed: {stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
+    let magnetic = json
+        .get("magnetic")
+        .unwrap_or_else(|| panic!("no magnetic section; calibrate said:\n{stdout}"));
+    assert_eq!(json["version"], 3, "a map with a magnetic section is v3");
+    // the two walks' 6001 magnetometer samples each, placed on truth
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("magnetic map:"))
+        .expect("calibrate prints the magnetic map's figures");
+    let samples: usize = line
+        .split_whitespace()
+        .nth(2)
+        .and_then(|n| n.parse().ok())
+        .unwrap();
+    assert!(samples >= 12_000, "{line}");
+    assert!(
+        magnetic.to_string().len() > 100,
+        "an empty magnetic section: {magnetic}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

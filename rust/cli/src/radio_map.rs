@@ -7,6 +7,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fpbp_core::events::LogEvent;
+use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use fpbp_core::radio::{RadioMap, RadioModel};
@@ -44,7 +45,17 @@ pub fn build(
     bar.finish_and_clear();
     let (mut map, reports, s) = b.finish()?;
     let skipped = scans.skipped;
-    let scans = scans.finish()?;
+    let scans = if cfg.walk_offsets && cfg.walk_offsets_in_scans {
+        scans.finish_with_walk_offsets(|walk, kind| {
+            let off = match kind {
+                TxKind::Ble => &s.ble_walk_offsets_db,
+                TxKind::Wifi => &s.wifi_walk_offsets_db,
+            };
+            off.get(&walk).copied().unwrap_or(0.0)
+        })?
+    } else {
+        scans.finish()?
+    };
     println!(
         "reference scans: {} ({} transmitters; {} windows left out: too few transmitters or a floor change)",
         scans.scans().len(),
@@ -86,6 +97,15 @@ pub fn build(
         "magnetic map: {} magnetometer samples ({} placed), {} cells with a value",
         s.magnetic_samples, s.magnetic_placed, s.magnetic_cells
     );
+    if cfg.walk_offsets {
+        let sd = |v: Option<f64>| v.map_or("-".to_string(), |d| format!("{d:.2} dB"));
+        println!(
+            "walk offsets: {} walk-kind pairs with an offset; spread BLE {}, WiFi {}",
+            s.walks_with_offset,
+            sd(s.ble_walk_offset_sd_db),
+            sd(s.wifi_walk_offset_sd_db)
+        );
+    }
     std::fs::write(out, map.to_json()?).with_context(|| format!("writing {}", out.display()))?;
     println!(
         "wrote {} ({} transmitters)",

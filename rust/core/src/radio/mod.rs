@@ -34,6 +34,7 @@ pub mod radio_map_file;
 pub mod reference_scans;
 pub mod survey;
 pub mod survey_track;
+pub mod walk_offsets;
 pub mod window;
 
 pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};

@@ -66,6 +66,16 @@ pub struct RadioMapConfig {
     pub moving_max_db: f64,
     /// The moving test needs this many shared bins (fewer: not tested). Default 3.
     pub moving_min_bins: usize,
+    /// Remove each survey walk's own RSSI offset (per radio kind, learned
+    /// where walks share bins: [`super::walk_offsets`]) before smoothing.
+    /// Default true (stop 33 folds: docs/parameters.md).
+    pub walk_offsets: bool,
+    /// A walk needs this many bins shared with other walks for an offset
+    /// (fewer: none). Default 10.
+    pub walk_offset_min_bins: usize,
+    /// With `walk_offsets`, remove them from the survey's reference scans
+    /// too (`fpbp calibrate --radio-map`). Default true.
+    pub walk_offsets_in_scans: bool,
     /// Most cells of one grid (the cell is coarsened by 1.25x until it
     /// fits). Default 40000.
     pub max_cells_per_grid: usize,
@@ -105,6 +115,9 @@ impl Default for RadioMapConfig {
             min_walks: 2,
             moving_max_db: 6.0,
             moving_min_bins: 3,
+            walk_offsets: true,
+            walk_offset_min_bins: 10,
+            walk_offsets_in_scans: true,
             max_cells_per_grid: 40_000,
             wifi_max_age_s: 4.0,
             min_rssi_dbm: -100.0,
@@ -178,6 +191,12 @@ impl RadioMapConfig {
             1 << 20,
         )?;
         check_count(
+            &format!("{p}.walk_offset_min_bins"),
+            self.walk_offset_min_bins,
+            1,
+            1 << 30,
+        )?;
+        check_count(
             &format!("{p}.max_cells_per_grid"),
             self.max_cells_per_grid,
             1,
@@ -213,8 +232,8 @@ struct Bin {
     sum: f64,
     sum2: f64,
     pos_sum: Vec2,
-    /// walk -> (count, sum)
-    walks: BTreeMap<usize, (f64, f64)>,
+    /// walk -> (count, sum, sum of squares)
+    walks: BTreeMap<usize, (f64, f64, f64)>,
 }
 
 /// Everything learned of one transmitter.
@@ -261,6 +280,14 @@ pub struct BuildSummary {
     pub magnetic_samples: usize,
     pub magnetic_placed: usize,
     pub magnetic_cells: usize,
+    /// With `walk_offsets`: the walks given an offset and the offsets'
+    /// spread per kind, dB.
+    pub walks_with_offset: usize,
+    pub ble_walk_offset_sd_db: Option<f64>,
+    pub wifi_walk_offset_sd_db: Option<f64>,
+    /// The offsets, dB, by walk (logs in the order added, from 0).
+    pub ble_walk_offsets_db: BTreeMap<usize, f64>,
+    pub wifi_walk_offsets_db: BTreeMap<usize, f64>,
 }
 
 /// Builds a [`RadioMap`] log by log.
@@ -365,9 +392,10 @@ impl<'a> RadioMapBuilder<'a> {
         bin.sum += s.rssi_dbm;
         bin.sum2 += s.rssi_dbm * s.rssi_dbm;
         bin.pos_sum += s.pos;
-        let w = bin.walks.entry(walk).or_insert((0.0, 0.0));
+        let w = bin.walks.entry(walk).or_insert((0.0, 0.0, 0.0));
         w.0 += 1.0;
         w.1 += s.rssi_dbm;
+        w.2 += s.rssi_dbm * s.rssi_dbm;
         true
     }
 
@@ -380,11 +408,33 @@ impl<'a> RadioMapBuilder<'a> {
             cfg,
             site_model,
             ids,
-            acc,
+            mut acc,
             mut summary,
             magnetic,
         } = self;
         summary.surveyed = ids.len();
+        if cfg.walk_offsets {
+            for kind in [TxKind::Ble, TxKind::Wifi] {
+                let of_kind: Vec<usize> = ids
+                    .iter()
+                    .filter(|((k, _), _)| *k == kind)
+                    .map(|(_, i)| *i)
+                    .collect();
+                let off = remove_walk_offsets(&mut acc, &of_kind, cfg.walk_offset_min_bins);
+                summary.walks_with_offset += off.len();
+                let sd = super::walk_offsets::spread_db(&off);
+                match kind {
+                    TxKind::Ble => {
+                        summary.ble_walk_offset_sd_db = sd;
+                        summary.ble_walk_offsets_db = off;
+                    }
+                    TxKind::Wifi => {
+                        summary.wifi_walk_offset_sd_db = sd;
+                        summary.wifi_walk_offsets_db = off;
+                    }
+                }
+            }
+        }
         let mut tx = Vec::new();
         let mut entries = Vec::new();
         let mut reports = Vec::new();
@@ -543,6 +593,43 @@ fn peak(grids: &[Grid], floor: i32) -> Option<Vec2> {
     ))
 }
 
+/// Learns the walks' offsets from the bins of the transmitters `txs`
+/// ([`super::walk_offsets::estimate`]) and removes them from those bins'
+/// sums; returns the offsets.
+fn remove_walk_offsets(acc: &mut [TxAcc], txs: &[usize], min_bins: usize) -> BTreeMap<usize, f64> {
+    use super::walk_offsets::{SharedBin, estimate};
+    let shared: Vec<SharedBin> = txs
+        .iter()
+        .flat_map(|i| acc[*i].bins.values().flat_map(|f| f.values()))
+        .filter(|b| b.walks.len() >= 2)
+        .map(|b| SharedBin {
+            walks: b
+                .walks
+                .iter()
+                .map(|(w, (n, s, _))| (*w, *n, s / n))
+                .collect(),
+        })
+        .collect();
+    let off = estimate(&shared, min_bins, 5);
+    for i in txs {
+        for b in acc[*i].bins.values_mut().flat_map(|f| f.values_mut()) {
+            let (mut sum, mut sum2) = (0.0, 0.0);
+            for (w, (n, s, s2)) in b.walks.iter_mut() {
+                if let Some(o) = off.get(w) {
+                    // sum (r - o)^2 = s2 - 2 o s + n o^2
+                    *s2 += -2.0 * o * *s + *n * o * o;
+                    *s -= *n * o;
+                }
+                sum += *s;
+                sum2 += *s2;
+            }
+            b.sum = sum;
+            b.sum2 = sum2;
+        }
+    }
+    off
+}
+
 /// RMS disagreement of walks in bins two or more walks share, after each
 /// walk's median offset from the shared bins' means; `None` with fewer than
 /// `min_bins` shared bins.
@@ -553,7 +640,8 @@ fn disagreement(a: &TxAcc, min_bins: usize) -> Option<f64> {
     for bins in a.bins.values() {
         for b in bins.values().filter(|b| b.walks.len() >= 2) {
             shared += 1;
-            let means: Vec<(usize, f64)> = b.walks.iter().map(|(w, (n, s))| (*w, s / n)).collect();
+            let means: Vec<(usize, f64)> =
+                b.walks.iter().map(|(w, (n, s, _))| (*w, s / n)).collect();
             let c = means.iter().map(|m| m.1).sum::<f64>() / means.len() as f64;
             res.extend(means.iter().map(|(w, m)| (*w, m - c)));
         }

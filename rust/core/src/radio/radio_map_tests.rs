@@ -544,3 +544,74 @@ fn the_magnetic_section_is_built_from_the_walks_and_round_trips() {
     let e = RadioMap::from_file(&f2, &site).unwrap_err().to_string();
     assert!(e.contains("magnetic.grids[1].floor"), "{e}");
 }
+
+/// Walks 0 and 1 read the field as it is on lines y = 6 and 12; walk 2, a
+/// phone 8 dB strong, walks lines 12, 18 and 24: only line 12 is shared.
+fn offset_survey() -> Vec<Vec<LogEvent>> {
+    let strong = |w: usize, k: usize, p: Vec2| field(w, k, p).map(|r| r + 8.0);
+    vec![
+        survey_walk(0, &zigzag(&[6.0, 12.0]), 6, &field),
+        survey_walk(1, &zigzag(&[12.0, 6.0]), 6, &field),
+        survey_walk(2, &zigzag(&[12.0, 18.0, 24.0]), 6, &strong),
+    ]
+}
+
+#[test]
+fn a_survey_walks_own_offset_is_removed_before_smoothing() {
+    let site = open_site(&[]);
+    let (a, b) = (Vec2::new(10.0, 6.0), Vec2::new(10.0, 24.0));
+    let truth = truth_mean(b) - truth_mean(a);
+    let slope = |cfg: &RadioMapConfig| {
+        let mut builder = RadioMapBuilder::new(&site, cfg).unwrap();
+        for l in offset_survey() {
+            builder.add_log(&l);
+        }
+        let (m, _, s) = builder.finish().unwrap();
+        let i = m.lookup(TxKind::Ble, &id(0)).unwrap();
+        let mu = |p| m.expected(i, 0, p).unwrap().0;
+        (mu(b) - mu(a), s)
+    };
+    // as walked, the strong phone's lines read ~8 dB high against the others'
+    let (raw, s) = slope(&RadioMapConfig {
+        walk_offsets: false,
+        ..open_cfg()
+    });
+    assert!(raw - truth > 5.0, "raw {raw:.1} vs {truth:.1}");
+    assert_eq!(s.walks_with_offset, 0);
+    let (fixed, s) = slope(&RadioMapConfig {
+        walk_offsets: true,
+        ..open_cfg()
+    });
+    assert!(
+        (fixed - truth).abs() < 2.0,
+        "fixed {fixed:.1} vs {truth:.1}"
+    );
+    assert_eq!(s.walks_with_offset, 3);
+    let off = &s.ble_walk_offsets_db;
+    assert!((off[&2] - off[&0] - 8.0).abs() < 1.0, "{off:?}");
+    assert!(s.wifi_walk_offsets_db.is_empty());
+    // the reference scans take the same correction, walk by walk
+    let scans = |offsets: bool| {
+        let mut b = crate::radio::reference_scans::ReferenceScanBuilder::new(
+            &crate::radio::reference_scans::ReferenceScanConfig::default(),
+            Some(0),
+        )
+        .unwrap();
+        for l in offset_survey() {
+            b.add_log(&l);
+        }
+        let set = if offsets {
+            b.finish_with_walk_offsets(|w, _| if w == 2 { 8.0 } else { 0.0 })
+        } else {
+            b.finish()
+        };
+        set.unwrap().scans().to_vec()
+    };
+    let (plain, shifted) = (scans(false), scans(true));
+    assert_eq!(plain.len(), shifted.len());
+    let n = plain.len();
+    assert!(n > 10, "{n} scans");
+    let last = (&plain[n - 1].tx[0], &shifted[n - 1].tx[0]);
+    assert_eq!(last.0.1 - last.1.1, 80, "walk 2's last scan 8 dB lower");
+    assert_eq!(plain[0].tx, shifted[0].tx, "walk 0 unchanged");
+}

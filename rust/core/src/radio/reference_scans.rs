@@ -592,6 +592,10 @@ pub struct ReferenceScanBuilder {
     ids: Vec<(TxKind, String)>,
     index: BTreeMap<(TxKind, String), u32>,
     scans: Vec<ReferenceScan>,
+    /// The walk (log, counted from 0) of each scan.
+    walk_of: Vec<usize>,
+    /// Logs added so far.
+    logs: usize,
     /// Entries over all scans so far.
     entries: usize,
     /// Scans left out: too few transmitters, a floor change inside the
@@ -610,6 +614,8 @@ impl ReferenceScanBuilder {
             ids: Vec::new(),
             index: BTreeMap::new(),
             scans: Vec::new(),
+            walk_of: Vec::new(),
+            logs: 0,
             entries: 0,
             skipped: 0,
         })
@@ -623,6 +629,8 @@ impl ReferenceScanBuilder {
             wifi_max_age_ns: (self.cfg.wifi_max_age_s * 1e9) as i64,
             min_rssi_dbm: self.cfg.min_rssi_dbm,
         };
+        let walk = self.logs;
+        self.logs += 1;
         let mut samples: Vec<RadioSample> = Vec::new();
         let counts = survey_samples(events, &opts, |s| samples.push(s));
         samples.sort_by_key(|s| s.t_ns);
@@ -641,13 +649,13 @@ impl ReferenceScanBuilder {
             while lo < hi && samples[lo].t_ns <= end - win {
                 lo += 1;
             }
-            self.push_window(&samples[lo..hi]);
+            self.push_window(&samples[lo..hi], walk);
             end += step;
         }
         counts
     }
 
-    fn push_window(&mut self, w: &[RadioSample]) {
+    fn push_window(&mut self, w: &[RadioSample], walk: usize) {
         let Some(at) = w.last() else { return };
         if w.iter().any(|s| s.floor != at.floor)
             || self.scans.len() >= MAX_REFERENCE_SCANS
@@ -690,6 +698,7 @@ impl ReferenceScanBuilder {
             tx.sort_by_key(|x| x.0);
         }
         self.entries += tx.len();
+        self.walk_of.push(walk);
         self.scans.push(ReferenceScan {
             floor: at.floor,
             x_m: (at.pos.x * 100.0).round() / 100.0,
@@ -700,6 +709,26 @@ impl ReferenceScanBuilder {
 
     /// The set.
     pub fn finish(self) -> Result<ReferenceScans> {
+        ReferenceScans::new(self.cfg, self.ids, self.scans)
+    }
+
+    /// The set with `offset_db(walk, kind)` (walks counted from 0 in the
+    /// order their logs were added) subtracted from every reading of that
+    /// walk's scans: the survey walks' own offsets
+    /// ([`super::walk_offsets`]), as the radio map removed them.
+    pub fn finish_with_walk_offsets(
+        mut self,
+        offset_db: impl Fn(usize, TxKind) -> f64,
+    ) -> Result<ReferenceScans> {
+        for (scan, walk) in self.scans.iter_mut().zip(&self.walk_of) {
+            for (j, r) in scan.tx.iter_mut() {
+                let kind = self.ids[*j as usize].0;
+                let o = offset_db(*walk, kind);
+                if o != 0.0 {
+                    *r = (f64::from(*r) - o * 10.0).round().clamp(-2000.0, 0.0) as i16;
+                }
+            }
+        }
         ReferenceScans::new(self.cfg, self.ids, self.scans)
     }
 }

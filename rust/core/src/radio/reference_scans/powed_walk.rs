@@ -36,13 +36,24 @@ impl ReferenceScans {
 
     /// The shared transmitters' correction of the RMS sum and their count
     /// for scan `si`, as [`ReferenceScans::shared_sums`] adds them (the
-    /// query's entries in order, each looked up in the scan's list).
+    /// query's entries in order, each found in the scan's list: by a merge
+    /// when `q` is by index, as the engines' windows are, else by a
+    /// binary search).
     pub(super) fn shared_of(&self, q: &[(u32, f64)], si: usize) -> (f64, u32) {
         let m = self.cfg.missing_dbm;
         let tx = &self.scans[si].tx;
-        let (mut corr, mut n) = (0.0, 0u32);
+        let by_index = q.windows(2).all(|w| w[0].0 < w[1].0);
+        let (mut corr, mut n, mut p) = (0.0, 0u32, 0usize);
         for &(j, a) in q {
-            if let Ok(p) = tx.binary_search_by_key(&j, |e| e.0) {
+            let hit = if by_index {
+                while p < tx.len() && tx[p].0 < j {
+                    p += 1;
+                }
+                (p < tx.len() && tx[p].0 == j).then_some(p)
+            } else {
+                tx.binary_search_by_key(&j, |e| e.0).ok()
+            };
+            if let Some(p) = hit {
                 let l = &self.levels[(i32::from(tx[p].1) - i32::from(self.levels_lo)) as usize];
                 corr += (a - l.r) * (a - l.r) - (a - m) * (a - m) - l.r_m2;
                 n += 1;
@@ -156,5 +167,15 @@ mod tests {
             }
         }
         assert!(visited_none > 0, "some scans share nothing with a query");
+        // a query not by index: the same sums through the binary search
+        let q = [(7, -61.0), (2, -48.5), (30, -77.0), (11, -90.0)];
+        for si in 0..set.scans.len() {
+            let (corr, n) = set.shared_of(&q, si);
+            let mut sorted = q;
+            sorted.sort_by_key(|e| e.0);
+            let want = full_walk(&set, &q)[si];
+            assert_eq!((corr.to_bits(), n), (want.0.to_bits(), want.2));
+            assert_eq!(set.shared_of(&sorted, si).1, n);
+        }
     }
 }

@@ -105,27 +105,33 @@ mod tests {
             }
         };
         let ids: Vec<(TxKind, String)> = (0..40).map(|i| (kind(i), format!("id{i}"))).collect();
-        let scans: Vec<ReferenceScan> = (0..300)
-            .map(|i| ReferenceScan {
+        let mut scans: Vec<ReferenceScan> = Vec::new();
+        for i in 0..300 {
+            // some readings at the floor (-100 dBm: level 0)
+            let mut tx: Vec<(u32, i16)> = Vec::new();
+            for j in 0..40u32 {
+                if next(3) == 0 {
+                    tx.push((j, -(300 + next(701) as i16)));
+                }
+            }
+            scans.push(ReferenceScan {
                 floor: 0,
                 x_m: i as f64,
                 y_m: 0.0,
-                // some readings at the floor (-100 dBm: level 0)
-                tx: (0..40u32)
-                    .filter_map(|j| (next(3) == 0).then(|| (j, -(300 + next(701) as i16))))
-                    .collect(),
-            })
-            .collect();
+                tx,
+            });
+        }
         let set = ReferenceScans::new(ReferenceScanConfig::default(), ids, scans).unwrap();
         let m = set.cfg.missing_dbm;
         let mut visited_none = 0;
         for _ in 0..60 {
             // readings down to -110 dBm (floored: level 0)
-            let q: Vec<(u32, f64)> = (0..40u32)
-                .filter_map(|j| {
-                    (next(4) == 0).then(|| (j, -30.0 - next(80) as f64 - 0.1 * next(10) as f64))
-                })
-                .collect();
+            let mut q: Vec<(u32, f64)> = Vec::new();
+            for j in 0..40u32 {
+                if next(4) == 0 {
+                    q.push((j, -30.0 - next(80) as f64 - 0.1 * next(10) as f64));
+                }
+            }
             for (ble, wifi) in [(true, true), (true, false), (false, true)] {
                 let used: Vec<(u32, f64)> = q
                     .iter()

@@ -30,6 +30,8 @@ use crate::bounds::check_count;
 use crate::events::LogEvent;
 use crate::{Error, Result};
 
+mod powed_walk;
+
 /// Most reference scans one set holds (a survey of ~55 h at 1 per s).
 pub const MAX_REFERENCE_SCANS: usize = 200_000;
 /// Most distinct transmitters.
@@ -240,6 +242,8 @@ pub struct ReferenceScans {
     /// What the query needs of a posting's RSSI, by `r10 - levels_lo`
     /// for every `r10` the postings hold ([`PostingLevel`]).
     levels: Vec<PostingLevel>,
+    /// The `powed` of `levels` alone (the Bray-Curtis walk reads only it).
+    level_powed: Vec<f64>,
     levels_lo: i16,
 }
 
@@ -265,13 +269,12 @@ impl PostingLevel {
     }
 }
 
-/// A query's running sums for one scan: the shared transmitters'
-/// correction of the RMS sum, their summed min powed level, their count
-/// (one struct: one cache line per posting visited).
+/// A query's running sums for one scan under [`ScanMetric::RmsDb`]: the
+/// shared transmitters' correction of the RMS sum and their count (one
+/// struct: one cache line per posting visited).
 #[derive(Debug, Clone, Copy, Default)]
 struct SharedSums {
     corr: f64,
-    min_powed: f64,
     n: u32,
 }
 
@@ -373,9 +376,10 @@ impl ReferenceScans {
         }
         let levels_lo = post_r10.iter().copied().min().unwrap_or(0);
         let levels_hi = post_r10.iter().copied().max().unwrap_or(0);
-        let levels = (levels_lo..=levels_hi)
+        let levels: Vec<PostingLevel> = (levels_lo..=levels_hi)
             .map(|r10| PostingLevel::of(r10, m, &powed_table))
             .collect();
+        let level_powed = levels.iter().map(|l| l.powed).collect();
         Ok(ReferenceScans {
             cfg,
             ids,
@@ -388,6 +392,7 @@ impl ReferenceScans {
             powed_alone,
             powed_table,
             levels,
+            level_powed,
             levels_lo,
         })
     }
@@ -466,35 +471,35 @@ impl ReferenceScans {
         let powed = metric == ScanMetric::BrayCurtisPowed;
         let q_levels: Option<Vec<f64>> =
             powed.then(|| q.iter().map(|&(_, a)| powed_level(a, m)).collect());
-        let shared = self.shared_sums(&q, q_levels.as_deref());
         let q_powed: f64 = q_levels.as_ref().map_or(0.0, |l| l.iter().sum());
         let mut out: Vec<(f64, f64, usize)> = Vec::new();
-        for (si, sh) in shared.iter().enumerate() {
-            let (corr, n_shared) = (sh.corr, sh.n);
-            if n_shared == 0 {
-                continue;
-            }
-            let al = &self.alone[si];
-            let (mut sum, mut n) = (q_only + corr, q.len() as u32 - n_shared);
-            let mut total = q_powed;
-            for (slot, on) in [(0, use_ble), (1, use_wifi)] {
-                if on {
-                    sum += al[slot].0;
-                    n += al[slot].1;
-                    total += self.powed_alone[si][slot];
+        if let Some(levels) = &q_levels {
+            // the scores from the min-level sums alone; the RMS distance
+            // of the k winners only (the same bits, `powed_walk`)
+            for (si, &min_powed) in self.powed_sums(&q, levels).iter().enumerate() {
+                if min_powed.is_sign_negative() {
+                    continue;
                 }
-            }
-            let d = (sum.max(0.0) / f64::from(n.max(1))).sqrt();
-            let score = if powed {
-                if total > 0.0 {
-                    (1.0 - 2.0 * sh.min_powed / total).max(0.0)
+                let mut total = q_powed;
+                for (slot, on) in [(0, use_ble), (1, use_wifi)] {
+                    if on {
+                        total += self.powed_alone[si][slot];
+                    }
+                }
+                let score = if total > 0.0 {
+                    (1.0 - 2.0 * min_powed / total).max(0.0)
                 } else {
                     1.0
+                };
+                out.push((score, f64::NAN, si));
+            }
+        } else {
+            for (si, sh) in self.shared_sums(&q).iter().enumerate() {
+                if sh.n > 0 {
+                    let d = self.rms_db(q.len(), q_only, (sh.corr, sh.n), si, use_ble, use_wifi);
+                    out.push((d, d, si));
                 }
-            } else {
-                d
-            };
-            out.push((score, d, si));
+            }
         }
         let k = k.min(out.len());
         if k == 0 {
@@ -507,6 +512,12 @@ impl ReferenceScans {
             out.truncate(k);
         }
         out.sort_by(cmp);
+        if powed {
+            for c in &mut out {
+                let sh = self.shared_of(&q, c.2);
+                c.1 = self.rms_db(q.len(), q_only, sh, c.2, use_ble, use_wifi);
+            }
+        }
         out.into_iter()
             .map(|(score, d, si)| {
                 let s = &self.scans[si];
@@ -522,19 +533,39 @@ impl ReferenceScans {
 }
 
 impl ReferenceScans {
-    /// The postings walk of [`ReferenceScans::query_with`]: per scan, the
-    /// sums over the transmitters it shares with `q` (RSSIs floored at
-    /// `missing_dbm`; only the scans that heard one of them are visited),
-    /// the powed minima only with the query's powed levels `q_levels`
-    /// (one per entry of `q`). Each shared transmitter turns two "heard on
-    /// one side only" terms into one difference: (a - r)^2 - (a - m)^2 -
-    /// (r - m)^2.
-    fn shared_sums(&self, q: &[(u32, f64)], q_levels: Option<&[f64]>) -> Vec<SharedSums> {
+    /// The RMS dB distance of scan `si` from a query of `q_len`
+    /// transmitters whose "heard on the query's side only" sum is
+    /// `q_only`, given the shared transmitters' correction and count.
+    fn rms_db(
+        &self,
+        q_len: usize,
+        q_only: f64,
+        (corr, n_shared): (f64, u32),
+        si: usize,
+        use_ble: bool,
+        use_wifi: bool,
+    ) -> f64 {
+        let al = &self.alone[si];
+        let (mut sum, mut n) = (q_only + corr, q_len as u32 - n_shared);
+        for (slot, on) in [(0, use_ble), (1, use_wifi)] {
+            if on {
+                sum += al[slot].0;
+                n += al[slot].1;
+            }
+        }
+        (sum.max(0.0) / f64::from(n.max(1))).sqrt()
+    }
+
+    /// The postings walk of [`ReferenceScans::query_with`] under
+    /// [`ScanMetric::RmsDb`]: per scan, the sums over the transmitters it
+    /// shares with `q` (RSSIs floored at `missing_dbm`; only the scans
+    /// that heard one of them are visited). Each shared transmitter turns
+    /// two "heard on one side only" terms into one difference: (a - r)^2
+    /// - (a - m)^2 - (r - m)^2.
+    fn shared_sums(&self, q: &[(u32, f64)]) -> Vec<SharedSums> {
         let m = self.cfg.missing_dbm;
-        let powed = q_levels.is_some();
         let mut shared = vec![SharedSums::default(); self.scans.len()];
-        for (i, &(j, a)) in q.iter().enumerate() {
-            let pa = q_levels.map_or(0.0, |l| l[i]);
+        for &(j, a) in q {
             let a_m2 = (a - m) * (a - m);
             let (lo, hi) = (
                 self.post_start[j as usize] as usize,
@@ -545,9 +576,6 @@ impl ReferenceScans {
                 let e = &mut shared[si as usize];
                 e.corr += (a - l.r) * (a - l.r) - a_m2 - l.r_m2;
                 e.n += 1;
-                if powed {
-                    e.min_powed += pa.min(l.powed);
-                }
             }
         }
         shared

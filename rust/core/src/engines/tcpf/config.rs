@@ -243,6 +243,13 @@ pub struct AnchorConfig {
     /// Candidate weight exp(-(s - s_best) / tau_powed) of its Bray-Curtis
     /// score s (in [0, 1]) under `bray_curtis_powed`.
     pub tau_powed: f64,
+    /// Once the cloud has started, the reference-scan query runs at most
+    /// once per this many seconds; the radio updates between reuse the
+    /// last query's candidates, moved by the steps walked since (a query
+    /// that gave none is repeated at the next radio task). 0 = at every
+    /// radio task. The query's postings walk is most of the radio task's
+    /// time (docs/tcpf.md "Speed, stop 33").
+    pub query_period_s: f64,
 }
 
 impl Default for AnchorConfig {
@@ -270,6 +277,7 @@ impl Default for AnchorConfig {
             accuracy_free_db: 6.0,
             metric: ScanMetric::BrayCurtisPowed,
             tau_powed: 0.2,
+            query_period_s: 0.0,
         }
     }
 }
@@ -301,6 +309,7 @@ impl AnchorConfig {
             ("accuracy_per_db_m", self.accuracy_per_db_m, 0.0, 100.0),
             ("accuracy_free_db", self.accuracy_free_db, 0.0, 200.0),
             ("tau_powed", self.tau_powed, 1e-4, 10.0),
+            ("query_period_s", self.query_period_s, 0.0, 600.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
         }

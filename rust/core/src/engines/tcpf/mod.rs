@@ -308,6 +308,12 @@ pub struct TcpfEngine {
     anchors_dropped_far: bool,
     /// Consecutive anchor floor votes for another floor.
     anchor_floor_run: Option<(i32, u32)>,
+    /// The last query that gave candidates: its time and candidates
+    /// (reused until `anchors.query_period_s` has passed).
+    last_query: Option<(i64, Vec2, Vec<Anchor>)>,
+    /// The steps' summed displacement (length along the step's yaw, MCS
+    /// m): reused anchors move by what was walked since their query.
+    walked: Vec2,
     /// Last time each model transmitter was heard (cached WiFi results
     /// included), ns; i64::MIN never.
     last_heard: Vec<i64>,
@@ -447,6 +453,8 @@ impl TcpfEngine {
             anchor_buf: Vec::new(),
             survey_dist_db: None,
             anchors_dropped_far: false,
+            last_query: None,
+            walked: Vec2::zeros(),
             last_heard: vec![i64::MIN; model.transmitters().len()],
             ble_active: false,
             wifi_active: false,
@@ -788,6 +796,7 @@ impl TcpfEngine {
         }
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
+        self.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
         let mut frac = 0.0;
         if let Some(m) = map {
             m.crosses_wall_each(
@@ -1083,6 +1092,20 @@ impl TcpfEngine {
         if ac.k == 0 {
             return Vec::new();
         }
+        // the queries of the first full window are all fresh: the start
+        // waits for anchors, and those of its short windows are poor
+        let window_ns = (scans.config().window_s * 1e9) as i64;
+        if let Some((t0, w0, last)) = &self.last_query
+            && self.pf.is_initialized()
+            && self.first_radio_t_ns.is_some_and(|t| t0 - t >= window_ns)
+            && ((t_ns - t0) as f64) < ac.query_period_s * 1e9
+        {
+            let shift = self.walked - w0;
+            let mut out = last.clone();
+            out.iter_mut().for_each(|a| a.pos += shift);
+            return out;
+        }
+        self.last_query = None;
         let off = if ac.use_offset {
             self.offset.mean_db()
         } else {
@@ -1105,6 +1128,9 @@ impl TcpfEngine {
             return out;
         }
         self.counts.anchor_queries += 1;
+        if ac.query_period_s > 0.0 {
+            self.last_query = Some((t_ns, self.walked, out.clone()));
+        }
         out
     }
 

@@ -727,3 +727,13 @@ fn a_walker_standing_still_is_not_weighed_by_the_magnetic_field() {
         }
     }
 }
+
+#[test]
+fn the_query_period_is_checked() {
+    let mut a = AnchorConfig::default();
+    assert!(a.validate().is_ok());
+    a.query_period_s = -1.0;
+    assert!(a.validate().is_err());
+    a.query_period_s = 601.0;
+    assert!(a.validate().is_err());
+}

@@ -480,17 +480,7 @@ impl ReferenceScans {
                 if min_powed.is_sign_negative() {
                     continue;
                 }
-                let mut total = q_powed;
-                for (slot, on) in [(0, use_ble), (1, use_wifi)] {
-                    if on {
-                        total += self.powed_alone[si][slot];
-                    }
-                }
-                let score = if total > 0.0 {
-                    (1.0 - 2.0 * min_powed / total).max(0.0)
-                } else {
-                    1.0
-                };
+                let score = self.powed_score(si, q_powed, min_powed, use_ble, use_wifi);
                 out.push((score, f64::NAN, si));
             }
         } else {
@@ -579,6 +569,30 @@ impl ReferenceScans {
             }
         }
         shared
+    }
+
+    /// Bray-Curtis dissimilarity of powed levels between a query (its
+    /// powed sum `q_powed`) and scan `si` sharing `min_powed` with it: 1 -
+    /// 2 shared / (both sums), the scan's sum over the kinds the query uses.
+    fn powed_score(
+        &self,
+        si: usize,
+        q_powed: f64,
+        min_powed: f64,
+        use_ble: bool,
+        use_wifi: bool,
+    ) -> f64 {
+        let mut total = q_powed;
+        for (slot, on) in [(0, use_ble), (1, use_wifi)] {
+            if on {
+                total += self.powed_alone[si][slot];
+            }
+        }
+        if total > 0.0 {
+            (1.0 - 2.0 * min_powed / total).max(0.0)
+        } else {
+            1.0
+        }
     }
 
     /// [`ReferenceScans::query_with`] over the radios `query` holds, each

@@ -148,17 +148,7 @@ mod tests {
                         visited_none += 1;
                         continue;
                     }
-                    let mut total = q_powed;
-                    for (slot, on) in [(0, ble), (1, wifi)] {
-                        if on {
-                            total += set.powed_alone[si][slot];
-                        }
-                    }
-                    let score = if total > 0.0 {
-                        (1.0 - 2.0 * min_powed / total).max(0.0)
-                    } else {
-                        1.0
-                    };
+                    let score = set.powed_score(si, q_powed, min_powed, ble, wifi);
                     let d = set.rms_db(used.len(), q_only, (corr, n), si, ble, wifi);
                     want.push((score, d, si));
                 }

@@ -10,6 +10,7 @@ use fpbp_core::events::LogEvent;
 use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
+use fpbp_core::radio::walk_offsets;
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
 
@@ -46,13 +47,7 @@ pub fn build(
     let (mut map, reports, s) = b.finish()?;
     let skipped = scans.skipped;
     let scans = if cfg.walk_offsets && cfg.walk_offsets_in_scans {
-        scans.finish_with_walk_offsets(|walk, kind| {
-            let off = match kind {
-                TxKind::Ble => &s.ble_walk_offsets_db,
-                TxKind::Wifi => &s.wifi_walk_offsets_db,
-            };
-            off.get(&walk).copied().unwrap_or(0.0)
-        })?
+        scans.finish_with_walk_offsets(|walk, kind| s.walk_offset_db(walk, kind))?
     } else {
         scans.finish()?
     };
@@ -98,12 +93,15 @@ pub fn build(
         s.magnetic_samples, s.magnetic_placed, s.magnetic_cells
     );
     if cfg.walk_offsets {
-        let sd = |v: Option<f64>| v.map_or("-".to_string(), |d| format!("{d:.2} dB"));
+        let sd = |kind| {
+            walk_offsets::spread_db(s.walk_offsets_db(kind))
+                .map_or("-".to_string(), |d| format!("{d:.2} dB"))
+        };
         println!(
             "walk offsets: {} walk-kind pairs with an offset; spread BLE {}, WiFi {}",
-            s.walks_with_offset,
-            sd(s.ble_walk_offset_sd_db),
-            sd(s.wifi_walk_offset_sd_db)
+            s.walks_with_offset(),
+            sd(TxKind::Ble),
+            sd(TxKind::Wifi)
         );
     }
     std::fs::write(out, map.to_json()?).with_context(|| format!("writing {}", out.display()))?;

@@ -280,14 +280,33 @@ pub struct BuildSummary {
     pub magnetic_samples: usize,
     pub magnetic_placed: usize,
     pub magnetic_cells: usize,
-    /// With `walk_offsets`: the walks given an offset and the offsets'
-    /// spread per kind, dB.
-    pub walks_with_offset: usize,
-    pub ble_walk_offset_sd_db: Option<f64>,
-    pub wifi_walk_offset_sd_db: Option<f64>,
-    /// The offsets, dB, by walk (logs in the order added, from 0).
+    /// With `walk_offsets`: each walk's offset per kind, dB, by walk (logs
+    /// in the order added, from 0; walks without one are absent).
     pub ble_walk_offsets_db: BTreeMap<usize, f64>,
     pub wifi_walk_offsets_db: BTreeMap<usize, f64>,
+}
+
+impl BuildSummary {
+    /// The offsets of one radio kind.
+    pub fn walk_offsets_db(&self, kind: TxKind) -> &BTreeMap<usize, f64> {
+        match kind {
+            TxKind::Ble => &self.ble_walk_offsets_db,
+            TxKind::Wifi => &self.wifi_walk_offsets_db,
+        }
+    }
+
+    /// The offset removed from `walk`'s readings of `kind`, dB (0: none).
+    pub fn walk_offset_db(&self, walk: usize, kind: TxKind) -> f64 {
+        self.walk_offsets_db(kind)
+            .get(&walk)
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// (walk, kind) pairs given an offset.
+    pub fn walks_with_offset(&self) -> usize {
+        self.ble_walk_offsets_db.len() + self.wifi_walk_offsets_db.len()
+    }
 }
 
 /// Builds a [`RadioMap`] log by log.
@@ -421,17 +440,9 @@ impl<'a> RadioMapBuilder<'a> {
                     .map(|(_, i)| *i)
                     .collect();
                 let off = remove_walk_offsets(&mut acc, &of_kind, cfg.walk_offset_min_bins);
-                summary.walks_with_offset += off.len();
-                let sd = super::walk_offsets::spread_db(&off);
                 match kind {
-                    TxKind::Ble => {
-                        summary.ble_walk_offset_sd_db = sd;
-                        summary.ble_walk_offsets_db = off;
-                    }
-                    TxKind::Wifi => {
-                        summary.wifi_walk_offset_sd_db = sd;
-                        summary.wifi_walk_offsets_db = off;
-                    }
+                    TxKind::Ble => summary.ble_walk_offsets_db = off,
+                    TxKind::Wifi => summary.wifi_walk_offsets_db = off,
                 }
             }
         }

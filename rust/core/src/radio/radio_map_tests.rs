@@ -577,7 +577,7 @@ fn a_survey_walks_own_offset_is_removed_before_smoothing() {
         ..open_cfg()
     });
     assert!(raw - truth > 5.0, "raw {raw:.1} vs {truth:.1}");
-    assert_eq!(s.walks_with_offset, 0);
+    assert_eq!(s.walks_with_offset(), 0);
     let (fixed, s) = slope(&RadioMapConfig {
         walk_offsets: true,
         ..open_cfg()
@@ -586,7 +586,7 @@ fn a_survey_walks_own_offset_is_removed_before_smoothing() {
         (fixed - truth).abs() < 2.0,
         "fixed {fixed:.1} vs {truth:.1}"
     );
-    assert_eq!(s.walks_with_offset, 3);
+    assert_eq!(s.walks_with_offset(), 3);
     let off = &s.ble_walk_offsets_db;
     assert!((off[&2] - off[&0] - 8.0).abs() < 1.0, "{off:?}");
     assert!(s.wifi_walk_offsets_db.is_empty());

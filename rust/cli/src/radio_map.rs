@@ -9,7 +9,7 @@ use anyhow::{Context, Result};
 use fpbp_core::events::LogEvent;
 use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
+use fpbp_core::radio::reference_scans::ReferenceScanConfig;
 use fpbp_core::radio::walk_offsets;
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
@@ -33,31 +33,25 @@ pub fn build(
                 .with_context(|| format!("{}: radio map config", p.display()))?
         }
     };
-    let mut b = RadioMapBuilder::new(site, &cfg)?;
-    let default_floor = (site.spec.floors.len() == 1).then(|| site.default_floor());
-    let mut scans = ReferenceScanBuilder::new(&ReferenceScanConfig::default(), default_floor)?;
+    let mut b =
+        RadioMapBuilder::new(site, &cfg)?.with_reference_scans(&ReferenceScanConfig::default())?;
     let bar = crate::progress::bar(logs.len() as u64);
     for (l, events) in logs {
         bar.set_message(format!("radio map: {}", l.display()));
         bar.inc(1);
         b.add_log(&events);
-        scans.add_log(&events);
     }
     bar.finish_and_clear();
-    let (mut map, reports, s) = b.finish()?;
-    let skipped = scans.skipped;
-    let scans = if cfg.walk_offsets && cfg.walk_offsets_in_scans {
-        scans.finish_with_walk_offsets(|walk, kind| s.walk_offset_db(walk, kind))?
-    } else {
-        scans.finish()?
-    };
+    let (map, reports, s) = b.finish()?;
+    let scans = map
+        .reference_scans()
+        .context("the radio map builder was given reference scans")?;
     println!(
         "reference scans: {} ({} transmitters; {} windows left out: too few transmitters or a floor change)",
         scans.scans().len(),
         scans.ids().len(),
-        skipped
+        s.reference_scans_skipped
     );
-    map.set_reference_scans(scans);
     let mut why: std::collections::BTreeMap<String, usize> = Default::default();
     for r in reports.iter().filter_map(|r| r.rejected.as_deref()) {
         let key = if r.contains("min_samples") {

@@ -11,7 +11,7 @@ use fpbp_core::engine::replay::{ReplayOutput, replay};
 use fpbp_core::engine::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::radio::RadioMap;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
+use fpbp_core::radio::reference_scans::ReferenceScanConfig;
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
 
@@ -22,18 +22,15 @@ fn demo_site() -> Arc<Site> {
 
 /// The radio map of three simulated survey walks, with their reference scans.
 fn surveyed_map(site: &Site) -> RadioMap {
-    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default()).unwrap();
-    let mut s =
-        ReferenceScanBuilder::new(&ReferenceScanConfig::default(), Some(site.default_floor()))
-            .unwrap();
+    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
+        .unwrap()
+        .with_reference_scans(&ReferenceScanConfig::default())
+        .unwrap();
     for seed in [41u64, 42, 43] {
         let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
         b.add_log(&log.events);
-        s.add_log(&log.events);
     }
-    let (mut map, _, _) = b.finish().unwrap();
-    map.set_reference_scans(s.finish().unwrap());
-    map
+    b.finish().unwrap().0
 }
 
 fn run(site: &Arc<Site>, map: &Arc<RadioMap>, engine: &str, cfg: &EngineConfig) -> ReplayOutput {

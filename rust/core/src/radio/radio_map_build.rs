@@ -28,6 +28,7 @@ use serde::{Deserialize, Serialize};
 use super::magnetic_map::{MagneticMapBuilder, MagneticMapConfig};
 use super::model::{PathLossModel, PathLossParams, RadioModel, Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap, fallback_at};
+use super::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use super::survey::{RadioSample, SurveyCounts, SurveyOptions, survey_samples};
 use crate::Vec2;
 use crate::ble::pathloss::PathLoss;
@@ -74,7 +75,7 @@ pub struct RadioMapConfig {
     /// (fewer: none). Default 10.
     pub walk_offset_min_bins: usize,
     /// With `walk_offsets`, remove them from the survey's reference scans
-    /// too (`fpbp calibrate --radio-map`). Default true.
+    /// too ([`RadioMapBuilder::with_reference_scans`]). Default true.
     pub walk_offsets_in_scans: bool,
     /// Most cells of one grid (the cell is coarsened by 1.25x until it
     /// fits). Default 40000.
@@ -280,6 +281,9 @@ pub struct BuildSummary {
     pub magnetic_samples: usize,
     pub magnetic_placed: usize,
     pub magnetic_cells: usize,
+    /// With reference scans: windows left out (too few transmitters, a
+    /// floor change, the size bounds).
+    pub reference_scans_skipped: usize,
     /// With `walk_offsets`: each walk's offset per kind, dB, by walk (logs
     /// in the order added, from 0; walks without one are absent).
     pub ble_walk_offsets_db: BTreeMap<usize, f64>,
@@ -318,6 +322,7 @@ pub struct RadioMapBuilder<'a> {
     acc: Vec<TxAcc>,
     summary: BuildSummary,
     magnetic: Option<MagneticMapBuilder>,
+    scans: Option<ReferenceScanBuilder>,
 }
 
 impl<'a> RadioMapBuilder<'a> {
@@ -348,7 +353,17 @@ impl<'a> RadioMapBuilder<'a> {
             } else {
                 None
             },
+            scans: None,
         })
+    }
+
+    /// Also cut the walks into reference scans (`scans`' settings), carried
+    /// by the finished map, with the walks' offsets removed as from the
+    /// grids when `walk_offsets` and `walk_offsets_in_scans` are set.
+    pub fn with_reference_scans(mut self, scans: &ReferenceScanConfig) -> Result<Self> {
+        let single = (self.site.spec.floors.len() == 1).then(|| self.site.default_floor());
+        self.scans = Some(ReferenceScanBuilder::new(scans, single)?);
+        Ok(self)
     }
 
     /// Adds one walked log (time-ordered events with truth points).
@@ -361,6 +376,9 @@ impl<'a> RadioMapBuilder<'a> {
             let (seen, placed) = m.add_log(events, &opts);
             self.summary.magnetic_samples += seen;
             self.summary.magnetic_placed += placed;
+        }
+        if let Some(s) = self.scans.as_mut() {
+            s.add_log(events);
         }
         let mut dropped = 0usize;
         let counts = survey_samples(events, &opts, |s| {
@@ -430,6 +448,7 @@ impl<'a> RadioMapBuilder<'a> {
             mut acc,
             mut summary,
             magnetic,
+            scans,
         } = self;
         summary.surveyed = ids.len();
         if cfg.walk_offsets {
@@ -566,6 +585,15 @@ impl<'a> RadioMapBuilder<'a> {
                     .sum()
             });
             map.set_magnetic(mag);
+        }
+        if let Some(b) = scans {
+            summary.reference_scans_skipped = b.skipped;
+            let set = if cfg.walk_offsets && cfg.walk_offsets_in_scans {
+                b.finish_with_walk_offsets(|walk, kind| summary.walk_offset_db(walk, kind))?
+            } else {
+                b.finish()?
+            };
+            map.set_reference_scans(set);
         }
         Ok((map, reports, summary))
     }

@@ -47,10 +47,9 @@ pub fn estimate(bins: &[SharedBin], min_pairs: usize, rounds: usize) -> BTreeMap
             }
         }
         let mut next = BTreeMap::new();
-        for (w, mut v) in res {
+        for (w, v) in res {
             if v.len() >= min_pairs.max(1) {
-                v.sort_by(f64::total_cmp);
-                next.insert(w, median_sorted(&v));
+                next.insert(w, crate::ble::calibrate::median(v));
             }
         }
         // centred on the readings of the walks that have one
@@ -65,15 +64,6 @@ pub fn estimate(bins: &[SharedBin], min_pairs: usize, rounds: usize) -> BTreeMap
         off = next;
     }
     off
-}
-
-fn median_sorted(v: &[f64]) -> f64 {
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// The reading-weighted standard deviation of the offsets, dB (`None`

@@ -796,7 +796,10 @@ impl TcpfEngine {
         }
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
-        self.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
+        if self.cfg.anchors.query_period_s > 0.0 {
+            // only reused anchors move by it
+            self.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
+        }
         let mut frac = 0.0;
         if let Some(m) = map {
             m.crosses_wall_each(

@@ -58,6 +58,13 @@ pub struct TcpfConfig {
     /// by more than this (a kidnapped walker whose steps fit the map where
     /// the cloud is).
     pub recovery_radio_alone_margin: f64,
+    /// On a floor without inner walls the radio alone decides (nothing
+    /// else can say the cloud is lost) unless the cloud was placed at a
+    /// told position (`InitialPosition`, `set_position`): after that only
+    /// beyond `recovery_radio_alone_margin`, as on a walled floor whose
+    /// walls the steps fit. A tap on the map outranks a radio that is
+    /// biased away from the survey's routes.
+    pub recovery_told_open_floor: bool,
     /// The radio-alone test also runs every this many radio updates
     /// without a likelihood dip (0 = only after a dip; each run evaluates
     /// the whole surface).
@@ -349,6 +356,7 @@ impl Default for TcpfConfig {
             recovery_margin: 0.0,
             recovery_min_wall_kill: 0.3,
             recovery_radio_alone_margin: 20.0,
+            recovery_told_open_floor: false,
             recovery_check_every: 0,
             floor_switch_votes: 3,
             floor_snap_m: 5.0,

@@ -351,6 +351,9 @@ pub struct TcpfEngine {
     hold_runs: u32,
     /// Radio updates since the last radio-alone recovery check.
     radio_updates_since_check: u32,
+    /// The cloud was last placed at a told position (`InitialPosition`,
+    /// `set_position`), not by the radio (`recovery_told_open_floor`).
+    told_start: bool,
     /// Moving average (rate 0.1 per step) of the share of particles a step
     /// kills at walls: a cloud whose steps keep hitting walls is lost.
     kill_ema: f64,
@@ -475,6 +478,7 @@ impl TcpfEngine {
             published: None,
             hold_runs: 0,
             radio_updates_since_check: 0,
+            told_start: false,
             kill_ema: 0.0,
             heading_rad: 0.0,
             pose: None,
@@ -550,6 +554,7 @@ impl TcpfEngine {
         };
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
+        self.told_start = true;
         self.online_step.drop_window();
         self.draw_offsets_from_belief();
         self.monitor.reset();
@@ -781,6 +786,7 @@ impl TcpfEngine {
         self.published = None;
         self.hold_runs = 0;
         self.counts.global_starts += 1;
+        self.told_start = false;
         self.last_radio_t_ns = Some(t_ns);
         true
     }
@@ -968,11 +974,12 @@ impl TcpfEngine {
             && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
                 Some(self.cfg.recovery_max_fraction)
             } else {
+                let open = !self.walled.get(&floor).copied().unwrap_or(false);
+                let radio_decides = open && !(self.told_start && self.cfg.recovery_told_open_floor);
                 (reseed > 0.0
                     && gap > self.cfg.recovery_margin
-                    && (self.kill_ema >= self.cfg.recovery_min_wall_kill
-                        || !self.walled.get(&floor).copied().unwrap_or(false)))
-                .then_some(reseed)
+                    && (self.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides))
+                    .then_some(reseed)
             }
         {
             let reseed = fraction;

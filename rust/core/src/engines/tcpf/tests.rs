@@ -737,3 +737,32 @@ fn the_query_period_is_checked() {
     a.query_period_s = 601.0;
     assert!(a.validate().is_err());
 }
+
+#[test]
+fn on_an_open_floor_a_told_start_outranks_a_weak_radio_dip() {
+    // the walk along x = 7 on a floor without walls, told to start 4 m east
+    // of it: nothing but the radio can say the cloud is off, so by default
+    // its dips re-seed the cloud from the likelihood surface; with
+    // `recovery_told_open_floor` only a gap beyond the radio-alone margin
+    // would (the radio biased away from the survey's routes must not undo
+    // a tap on the map)
+    use crate::site::testkit::{beacon_site, open_map};
+    let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
+    let site = beacon_site("open", vec![open_map(20, 40)], &bs, MODEL);
+    let ev = walk_north(30, None);
+    let init = InitialPosition {
+        x_m: 11.0,
+        y_m: 4.0,
+        floor: 0,
+        heading_rad: None,
+    };
+    let reseeded = |told: bool, at: Option<InitialPosition>| {
+        let mut cfg = EngineConfig::default();
+        cfg.tcpf.recovery_told_open_floor = told;
+        let mut e = TcpfEngine::new(Arc::clone(&site), &cfg, at).unwrap();
+        let _ = replay(&mut e, ev.iter().cloned());
+        e.counts.reseeded
+    };
+    assert!(reseeded(false, Some(init)) > 0);
+    assert_eq!(reseeded(true, Some(init)), 0);
+}

@@ -78,6 +78,27 @@ crate::simd::avx2_dispatch! {
     }
 }
 
+/// The largest of `f(x)` over `xs` as `fold(NEG_INFINITY, f64::max)`
+/// gives it (NaN ignored; `NEG_INFINITY` when `xs` is empty or all NaN),
+/// in eight interleaved maxima: the maximum is exact whatever the order,
+/// so only the sign of a zero maximum can differ (both zeros there), and
+/// the eight chains overlap where one chain waits on each compare (a
+/// fold over a cloud is as slow as its 1000 dependent steps).
+#[inline]
+pub fn max_many(xs: &[f64], f: impl Fn(f64) -> f64) -> f64 {
+    let mut acc = [f64::NEG_INFINITY; 8];
+    let mut chunks = xs.chunks_exact(8);
+    for c in &mut chunks {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a = a.max(f(*x));
+        }
+    }
+    for x in chunks.remainder() {
+        acc[0] = acc[0].max(f(*x));
+    }
+    acc.into_iter().fold(f64::NEG_INFINITY, f64::max)
+}
+
 /// cos x for |x| <= pi/2 by its Taylor series to x^22 (truncation
 /// < 2e-17 there); Horner in x^2.
 #[inline]
@@ -116,6 +137,28 @@ pub fn cos_turns(u: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn max_many_is_the_fold() {
+        let fold = |xs: &[f64], f: &dyn Fn(f64) -> f64| {
+            xs.iter().map(|x| f(*x)).fold(f64::NEG_INFINITY, f64::max)
+        };
+        let finite = |x: f64| if x.is_finite() { x } else { f64::NEG_INFINITY };
+        let mut xs: Vec<f64> = (0..1003)
+            .map(|i| (f64::from(i) * 0.77).sin() * 50.0)
+            .collect();
+        for n in [0, 1, 7, 8, 9, 17, 1003] {
+            for f in [&(|x| x) as &dyn Fn(f64) -> f64, &|x| 0.3 * x, &finite] {
+                assert_eq!(max_many(&xs[..n], f).to_bits(), fold(&xs[..n], f).to_bits());
+            }
+        }
+        // NaN ignored, infinities kept or dropped by `f`
+        xs[5] = f64::NAN;
+        xs[600] = f64::INFINITY;
+        assert_eq!(max_many(&xs, |x| x), f64::INFINITY);
+        assert_eq!(max_many(&xs, finite), fold(&xs, &finite));
+        assert_eq!(max_many(&[f64::NAN; 11], |x| x), f64::NEG_INFINITY);
+    }
 
     #[test]
     fn fast_exp_matches_exp() {

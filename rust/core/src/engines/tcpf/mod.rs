@@ -44,7 +44,7 @@ use crate::Result;
 use crate::Vec2;
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
-use crate::fast_math::{exp_many, fast_exp};
+use crate::fast_math::{exp_many, fast_exp, max_many};
 use crate::floor::FloorTracker;
 use crate::fusion::ParticleFilter;
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
@@ -726,11 +726,17 @@ impl TcpfEngine {
         if os.len() != ws.len() || os.is_empty() {
             return;
         }
-        let wsum: f64 = ws.iter().sum();
+        // both sums in one pass, each in its order (the two chains of
+        // dependent adds overlap)
+        let (mut wsum, mut owsum) = (-0.0, -0.0);
+        for (o, w) in os.iter().zip(ws) {
+            wsum += w;
+            owsum += o * w;
+        }
         if wsum <= 0.0 {
             return;
         }
-        let mean = os.iter().zip(ws).map(|(o, w)| o * w).sum::<f64>() / wsum;
+        let mean = owsum / wsum;
         let var = os
             .iter()
             .zip(ws)
@@ -923,10 +929,7 @@ impl TcpfEngine {
         }
         // log of the cloud's mean likelihood tempered by alpha0 (comparable
         // with the surface), by log-sum-exp
-        let lmax = self
-            .log_l
-            .iter()
-            .fold(f64::NEG_INFINITY, |a, u| a.max(alpha0 * u));
+        let lmax = max_many(&self.log_l, |u| alpha0 * u);
         let n = self.log_l.len().max(1) as f64;
         xs.clear();
         xs.extend(self.log_l.iter().map(|u| alpha0 * u - lmax));

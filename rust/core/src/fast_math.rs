@@ -61,7 +61,9 @@ pub fn fast_exp(x: f64) -> f64 {
 /// `out[i]` = e^`xs[i]` (same length), [`fast_exp`]'s values: one
 /// branch-free pass, then `f64::exp` for the rare inputs out of range.
 pub fn exp_many(xs: &[f64], out: &mut [f64]) {
-    exp_clamped_many(xs, out);
+    if exp_clamped_many(xs, out) {
+        return;
+    }
     for (o, &x) in out.iter_mut().zip(xs) {
         if !(EXP_MIN..=EXP_MAX).contains(&x) {
             *o = x.exp();
@@ -70,11 +72,17 @@ pub fn exp_many(xs: &[f64], out: &mut [f64]) {
 }
 
 crate::simd::avx2_dispatch! {
-    /// `out[i]` = [`exp_in_range`] of `xs[i]` clamped to the range.
-    fn exp_clamped_many(xs: &[f64], out: &mut [f64]) {
+    /// `out[i]` = [`exp_in_range`] of `xs[i]` clamped to the range;
+    /// whether every `xs[i]` was in it (NaN is not): the flag in the same
+    /// vectorised loop, so the scalar pass for `f64::exp` runs only when
+    /// some input needs it.
+    fn exp_clamped_many(xs: &[f64], out: &mut [f64]) -> bool {
+        let mut all_in = true;
         for (o, &x) in out.iter_mut().zip(xs) {
+            all_in &= (EXP_MIN..=EXP_MAX).contains(&x);
             *o = exp_in_range(x.clamp(EXP_MIN, EXP_MAX));
         }
+        all_in
     }
 }
 
@@ -190,6 +198,16 @@ mod tests {
         exp_many(&xs, &mut out);
         for (x, o) in xs.iter().zip(&out) {
             assert!(fast_exp(*x).to_bits() == o.to_bits(), "{x}");
+        }
+        // all in range (the scalar pass skipped), and one out at the end
+        let mut ys: Vec<f64> = (0..37).map(|i| f64::from(i) * 7.3 - 130.0).collect();
+        for last in [0.0, -1e4, f64::NEG_INFINITY] {
+            ys[36] = last;
+            let mut out = vec![0.0; ys.len()];
+            exp_many(&ys, &mut out);
+            for (y, o) in ys.iter().zip(&out) {
+                assert!(fast_exp(*y).to_bits() == o.to_bits(), "{y}");
+            }
         }
     }
 

@@ -61,7 +61,9 @@ pub fn fast_exp(x: f64) -> f64 {
 /// `out[i]` = e^`xs[i]` (same length), [`fast_exp`]'s values: one
 /// branch-free pass, then `f64::exp` for the rare inputs out of range.
 pub fn exp_many(xs: &[f64], out: &mut [f64]) {
-    exp_clamped_many(xs, out);
+    if exp_clamped_many(xs, out) {
+        return;
+    }
     for (o, &x) in out.iter_mut().zip(xs) {
         if !(EXP_MIN..=EXP_MAX).contains(&x) {
             *o = x.exp();
@@ -70,12 +72,39 @@ pub fn exp_many(xs: &[f64], out: &mut [f64]) {
 }
 
 crate::simd::avx2_dispatch! {
-    /// `out[i]` = [`exp_in_range`] of `xs[i]` clamped to the range.
-    fn exp_clamped_many(xs: &[f64], out: &mut [f64]) {
+    /// `out[i]` = [`exp_in_range`] of `xs[i]` clamped to the range;
+    /// whether every `xs[i]` was in it (NaN is not): the flag in the same
+    /// vectorised loop, so the scalar pass for `f64::exp` runs only when
+    /// some input needs it.
+    fn exp_clamped_many(xs: &[f64], out: &mut [f64]) -> bool {
+        let mut all_in = true;
         for (o, &x) in out.iter_mut().zip(xs) {
+            all_in &= (EXP_MIN..=EXP_MAX).contains(&x);
             *o = exp_in_range(x.clamp(EXP_MIN, EXP_MAX));
         }
+        all_in
     }
+}
+
+/// The largest of `f(x)` over `xs` as `fold(NEG_INFINITY, f64::max)`
+/// gives it (NaN ignored; `NEG_INFINITY` when `xs` is empty or all NaN),
+/// in eight interleaved maxima: the maximum is exact whatever the order,
+/// so only the sign of a zero maximum can differ (both zeros there), and
+/// the eight chains overlap where one chain waits on each compare (a
+/// fold over a cloud is as slow as its 1000 dependent steps).
+#[inline]
+pub fn max_many(xs: &[f64], f: impl Fn(f64) -> f64) -> f64 {
+    let mut acc = [f64::NEG_INFINITY; 8];
+    let mut chunks = xs.chunks_exact(8);
+    for c in &mut chunks {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a = a.max(f(*x));
+        }
+    }
+    for x in chunks.remainder() {
+        acc[0] = acc[0].max(f(*x));
+    }
+    acc.into_iter().fold(f64::NEG_INFINITY, f64::max)
 }
 
 /// cos x for |x| <= pi/2 by its Taylor series to x^22 (truncation
@@ -118,6 +147,28 @@ mod tests {
     use super::*;
 
     #[test]
+    fn max_many_is_the_fold() {
+        let fold = |xs: &[f64], f: &dyn Fn(f64) -> f64| {
+            xs.iter().map(|x| f(*x)).fold(f64::NEG_INFINITY, f64::max)
+        };
+        let finite = |x: f64| if x.is_finite() { x } else { f64::NEG_INFINITY };
+        let mut xs: Vec<f64> = (0..1003)
+            .map(|i| (f64::from(i) * 0.77).sin() * 50.0)
+            .collect();
+        for n in [0, 1, 7, 8, 9, 17, 1003] {
+            for f in [&(|x| x) as &dyn Fn(f64) -> f64, &|x| 0.3 * x, &finite] {
+                assert_eq!(max_many(&xs[..n], f).to_bits(), fold(&xs[..n], f).to_bits());
+            }
+        }
+        // NaN ignored, infinities kept or dropped by `f`
+        xs[5] = f64::NAN;
+        xs[600] = f64::INFINITY;
+        assert_eq!(max_many(&xs, |x| x), f64::INFINITY);
+        assert_eq!(max_many(&xs, finite), fold(&xs, &finite));
+        assert_eq!(max_many(&[f64::NAN; 11], |x| x), f64::NEG_INFINITY);
+    }
+
+    #[test]
     fn fast_exp_matches_exp() {
         let mut worst: f64 = 0.0;
         let mut x = -760.0;
@@ -147,6 +198,16 @@ mod tests {
         exp_many(&xs, &mut out);
         for (x, o) in xs.iter().zip(&out) {
             assert!(fast_exp(*x).to_bits() == o.to_bits(), "{x}");
+        }
+        // all in range (the scalar pass skipped), and one out at the end
+        let mut ys: Vec<f64> = (0..37).map(|i| f64::from(i) * 7.3 - 130.0).collect();
+        for last in [0.0, -1e4, f64::NEG_INFINITY] {
+            ys[36] = last;
+            let mut out = vec![0.0; ys.len()];
+            exp_many(&ys, &mut out);
+            for (y, o) in ys.iter().zip(&out) {
+                assert!(fast_exp(*y).to_bits() == o.to_bits(), "{y}");
+            }
         }
     }
 

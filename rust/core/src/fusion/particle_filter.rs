@@ -844,11 +844,13 @@ impl ParticleFilter {
         if self.particles.is_empty() || log_l.len() != self.particles.len() {
             return;
         }
-        let max = log_l
-            .iter()
-            .copied()
-            .filter(|v| v.is_finite())
-            .fold(f64::NEG_INFINITY, f64::max);
+        let max =
+            crate::fast_math::max_many(
+                log_l,
+                |v| {
+                    if v.is_finite() { v } else { f64::NEG_INFINITY }
+                },
+            );
         if !max.is_finite() {
             return;
         }

@@ -16,7 +16,28 @@ pub fn weighted_quantile(items: &mut [(f64, f64)], quantile: f64) -> Option<f64>
         return None;
     }
     let target = quantile * items.iter().map(|x| x.1).sum::<f64>();
-    let cmp = |a: &(f64, f64), b: &(f64, f64)| a.0.total_cmp(&b.0);
+    // values without a sign bit (distances; NaN included) are in
+    // `total_cmp`'s order as their bits are as integers: the cheaper
+    // compare gives every comparison the same answer, so the selection
+    // reorders the items the same way and the sums are the same
+    let unsigned = items
+        .iter()
+        .fold(true, |ok, x| ok & (x.0.to_bits() >> 63 == 0));
+    if unsigned {
+        select(items, target, |a, b| a.0.to_bits().cmp(&b.0.to_bits()))
+    } else {
+        select(items, target, |a, b| a.0.total_cmp(&b.0))
+    }
+}
+
+/// [`weighted_quantile`]'s search for the weight `target` with the value
+/// order `cmp`.
+#[inline(always)]
+fn select(
+    items: &mut [(f64, f64)],
+    target: f64,
+    cmp: impl Fn(&(f64, f64), &(f64, f64)) -> std::cmp::Ordering + Copy,
+) -> Option<f64> {
     // the weight of the items below `lo` (all smaller than those from it)
     let (mut lo, mut hi, mut below) = (0usize, items.len(), 0.0);
     while hi - lo > SORT_BELOW {
@@ -87,6 +108,28 @@ mod tests {
             }
         }
         assert_eq!(weighted_quantile(&mut [], 0.5), None);
+        // values without a sign bit compare by their bits: the same
+        // reordering and result as `total_cmp` (weights with inexact sums)
+        for n in [3usize, 40, 1000, 4000] {
+            let mut items: Vec<(f64, f64)> = (0..n).map(|_| (next() * 30.0, next())).collect();
+            items[1] = (0.0, 0.3);
+            items[2] = (f64::INFINITY, 0.2);
+            if n > 3 {
+                items[3] = (f64::NAN, 0.1);
+            }
+            for q in [0.1, 0.68, 0.99] {
+                let (mut a, mut b) = (items.clone(), items.clone());
+                let target = q * items.iter().map(|x| x.1).sum::<f64>();
+                let want = select(&mut a, target, |x, y| x.0.total_cmp(&y.0));
+                let got = weighted_quantile(&mut b, q);
+                assert_eq!(got.map(f64::to_bits), want.map(f64::to_bits), "n {n}");
+                assert!(
+                    a.iter()
+                        .zip(&b)
+                        .all(|(x, y)| x.0.to_bits() == y.0.to_bits())
+                );
+            }
+        }
         let mut nan = vec![(1.0, f64::NAN), (3.0, 1.0), (2.0, 1.0)];
         assert_eq!(weighted_quantile(&mut nan, 0.5), Some(3.0));
     }

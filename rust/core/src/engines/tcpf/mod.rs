@@ -44,7 +44,7 @@ use crate::Result;
 use crate::Vec2;
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
-use crate::fast_math::{exp_many, fast_exp};
+use crate::fast_math::{exp_many, fast_exp, max_many};
 use crate::floor::FloorTracker;
 use crate::fusion::ParticleFilter;
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
@@ -200,8 +200,17 @@ const CELL_EXPECTED_MAX: usize = 1 << 20;
 /// again (two thirds of a surface's work with a radio map).
 #[derive(Debug, Default)]
 struct CellExpected {
-    by: BTreeMap<(i32, usize), (Vec<f64>, Vec<f64>)>,
+    by: BTreeMap<(i32, usize), CellValues>,
     pairs: usize,
+}
+
+/// One transmitter's expected RSSI over a floor's cells.
+#[derive(Debug)]
+struct CellValues {
+    mean: Vec<f64>,
+    sd: Vec<f64>,
+    /// The smallest of `sd` ([`TcpfEngine::surface_gap_bound`]).
+    min_sd: f64,
 }
 
 impl CellExpected {
@@ -215,7 +224,9 @@ impl CellExpected {
             }
             let (mut mean, mut sd) = (vec![0.0; cells.len()], vec![0.0; cells.len()]);
             if model.expected_many(m.tx, floor, cells, &mut mean, &mut sd) {
-                self.by.insert((floor, m.tx), (mean, sd));
+                let min_sd = sd.iter().copied().fold(f64::INFINITY, f64::min);
+                self.by
+                    .insert((floor, m.tx), CellValues { mean, sd, min_sd });
                 self.pairs += cells.len();
             }
         }
@@ -257,10 +268,10 @@ impl RadioModel for WithCells<'_> {
     ) -> bool {
         // the very cell list (not merely as many points)
         let cells = floor == self.floor && std::ptr::eq(ps, self.cells);
-        if let (true, Some((m, s))) = (cells, self.cache.by.get(&(floor, tx))) {
+        if let (true, Some(v)) = (cells, self.cache.by.get(&(floor, tx))) {
             let n = ps.len();
-            mean[..n].copy_from_slice(m);
-            sd[..n].copy_from_slice(s);
+            mean[..n].copy_from_slice(&v.mean);
+            sd[..n].copy_from_slice(&v.sd);
             return true;
         }
         self.model.expected_many(tx, floor, ps, mean, sd)
@@ -620,6 +631,34 @@ impl TcpfEngine {
         })
     }
 
+    /// An upper bound on the recovery check's gap (the surface's
+    /// log-sum-exp over its cells' weights, less the cloud's tempered log
+    /// mean likelihood `cloud_ll`) for `meas` on `floor`, without the
+    /// surface: every factor 1 + z^2/nu is at least 1, the offset's prior
+    /// term and the misses' at most 0, so a cell's tempered log-likelihood
+    /// is at most alpha times -`sd_norm_weight` times the sum of ln sd, and
+    /// sd at least the smallest over the floor's cells ([`CellExpected`]).
+    /// With a small slack for the rounding of [`fast_ln`] and the products.
+    /// `None` when a heard transmitter's cells are not held (cache full, or
+    /// unknown to the model there): the surface must be computed.
+    fn surface_gap_bound(
+        &mut self,
+        floor: i32,
+        meas: &[Measurement],
+        cloud_ll: f64,
+    ) -> Option<f64> {
+        let cells = self.cells.get(&floor)?;
+        self.cell_expected
+            .fill(self.model.as_ref(), floor, cells, meas);
+        let mut ln_sd = 0.0;
+        for m in meas {
+            ln_sd += self.cell_expected.by.get(&(floor, m.tx))?.min_sd.ln();
+        }
+        let lc = &self.cfg.likelihood;
+        let best = lc.alpha(meas.len()) * -(lc.sd_norm_weight * ln_sd);
+        Some(best - cloud_ll + 1e-6 * (1.0 + best.abs() + cloud_ll.abs()))
+    }
+
     /// The prior of the offset profiled at a start or re-seeding: the
     /// current belief, or with per-particle offsets and
     /// `offset.reseed_from_prior` on a re-seeding, the configured prior.
@@ -692,11 +731,17 @@ impl TcpfEngine {
         if os.len() != ws.len() || os.is_empty() {
             return;
         }
-        let wsum: f64 = ws.iter().sum();
+        // both sums in one pass, each in its order (the two chains of
+        // dependent adds overlap)
+        let (mut wsum, mut owsum) = (-0.0, -0.0);
+        for (o, w) in os.iter().zip(ws) {
+            wsum += w;
+            owsum += o * w;
+        }
         if wsum <= 0.0 {
             return;
         }
-        let mean = os.iter().zip(ws).map(|(o, w)| o * w).sum::<f64>() / wsum;
+        let mean = owsum / wsum;
         let var = os
             .iter()
             .zip(ws)
@@ -890,10 +935,7 @@ impl TcpfEngine {
         }
         // log of the cloud's mean likelihood tempered by alpha0 (comparable
         // with the surface), by log-sum-exp
-        let lmax = self
-            .log_l
-            .iter()
-            .fold(f64::NEG_INFINITY, |a, u| a.max(alpha0 * u));
+        let lmax = max_many(&self.log_l, |u| alpha0 * u);
         let n = self.log_l.len().max(1) as f64;
         xs.clear();
         xs.extend(self.log_l.iter().map(|u| alpha0 * u - lmax));
@@ -925,22 +967,23 @@ impl TcpfEngine {
         self.pf.weight_log(&log_l);
         self.log_l = log_l;
         self.counts.radio_updates += 1;
-        // residuals of each transmitter averaged over the weighted cloud
-        let ws = self.pf.weights();
-        let residuals: Vec<(f64, f64, f64)> = meas
-            .iter()
-            .enumerate()
-            .filter_map(|(k, mm)| {
-                let (mu, sd, wsum) = cloud.weighted_expected(k, ws)?;
-                (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
-            })
-            .collect();
-        self.cloud = cloud;
         if per_particle {
             self.summarise_offsets();
         } else {
+            // residuals of each transmitter averaged over the weighted
+            // cloud (only the one offset for the whole cloud reads them)
+            let ws = self.pf.weights();
+            let residuals: Vec<(f64, f64, f64)> = meas
+                .iter()
+                .enumerate()
+                .filter_map(|(k, mm)| {
+                    let (mu, sd, wsum) = cloud.weighted_expected(k, ws)?;
+                    (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
+                })
+                .collect();
             self.offset.observe(t_ns, &residuals);
         }
+        self.cloud = cloud;
         self.pf.resample_if_degenerate();
         let reseed = self.monitor.update(
             mean_l,
@@ -967,19 +1010,34 @@ impl TcpfEngine {
         if far && (reseed > 0.0 || check) {
             self.counts.reseed_far += 1;
         }
+        // the gap that re-seeds: past `recovery_radio_alone_margin`, or
+        // with a dip and the walls' consent past `recovery_margin`; when
+        // the bound says the gap cannot pass it, the surface (the largest
+        // share of an update that computes it) would change nothing
+        // on a floor without inner walls nothing but the radio can say the
+        // cloud is lost, unless the cloud came from a told position
+        // (`recovery_told_open_floor`)
+        let open = !self.walled.get(&floor).copied().unwrap_or(false);
+        let radio_decides = open && !(self.told_start && self.cfg.recovery_told_open_floor);
+        let walls_agree = self.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides;
+        let needed = if reseed > 0.0 && walls_agree {
+            self.cfg
+                .recovery_radio_alone_margin
+                .min(self.cfg.recovery_margin)
+        } else {
+            self.cfg.recovery_radio_alone_margin
+        };
         if (reseed > 0.0 || check)
             && !far
+            && self
+                .surface_gap_bound(floor, meas, cloud_ll)
+                .is_none_or(|b| b > needed)
             && let Some(surf) = self.surface(floor, meas, missing, &[], self.profile_prior(true))
             && let gap = surf.lse - surf.w.iter().sum::<f64>().ln() - cloud_ll
             && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
                 Some(self.cfg.recovery_max_fraction)
             } else {
-                let open = !self.walled.get(&floor).copied().unwrap_or(false);
-                let radio_decides = open && !(self.told_start && self.cfg.recovery_told_open_floor);
-                (reseed > 0.0
-                    && gap > self.cfg.recovery_margin
-                    && (self.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides))
-                    .then_some(reseed)
+                (reseed > 0.0 && gap > self.cfg.recovery_margin && walls_agree).then_some(reseed)
             }
         {
             let reseed = fraction;

@@ -766,3 +766,75 @@ fn on_an_open_floor_a_told_start_outranks_a_weak_radio_dip() {
     assert!(reseeded(false, Some(init)) > 0);
     assert_eq!(reseeded(true, Some(init)), 0);
 }
+
+/// The path-loss model with a spread that grows along x (as a radio
+/// map's does away from the survey walks): the surface's bound must hold
+/// where the sd differs between cells.
+struct SpreadAlongX(crate::radio::PathLossModel);
+
+impl RadioModel for SpreadAlongX {
+    fn transmitters(&self) -> &[crate::radio::Transmitter] {
+        self.0.transmitters()
+    }
+
+    fn lookup(&self, kind: TxKind, id: &str) -> Option<usize> {
+        self.0.lookup(kind, id)
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let (mu, sd) = self.0.expected(tx, floor, p)?;
+        Some((mu, sd * (0.5 + 0.1 * p.x.abs())))
+    }
+}
+
+/// [`TcpfEngine::surface_gap_bound`] is at least the gap of the surface it
+/// stands for (with the cloud's log-likelihood 0, so the surface's own
+/// log-sum-exp less the log of its weights' sum), on the path-loss model
+/// and on one whose spread varies over the cells, for readings near and
+/// far from the model, with and without misses and prior: the surface it
+/// lets the engine skip could not have re-seeded.
+#[test]
+fn the_surface_bound_is_never_below_the_surface() {
+    use crate::radio::model::PathLossParams;
+    let s = site();
+    let cfg = EngineConfig::default();
+    let l = &cfg.tcpf.likelihood;
+    let params = PathLossParams {
+        ble_sd_db: l.ble_sd_db,
+        wifi_sd_db: l.wifi_sd_db,
+        floor_loss_db: l.floor_loss_db,
+        other_floor_sd_db: l.other_floor_sd_db,
+        min_range_m: l.min_range_m,
+        phone_height_m: cfg.ble.phone_height_m,
+    };
+    let plain = PathLossModel::for_site(&s, params);
+    let models: [Arc<dyn RadioModel>; 2] = [Arc::new(plain.clone()), Arc::new(SpreadAlongX(plain))];
+    for model in models {
+        let mut e = TcpfEngine::with_model(Arc::clone(&s), &cfg, None, model).unwrap();
+        let n = e.model().transmitters().len();
+        let all: Vec<usize> = (0..n).collect();
+        for (trial, at) in [(0, Vec2::new(7.0, 4.0)), (1, Vec2::new(15.0, 30.0))] {
+            for shift in [-30.0, -9.0, 0.0, 4.0, 25.0] {
+                for heard in [&all[..1], &all[..n / 2], &all[..]] {
+                    let meas: Vec<Measurement> = heard
+                        .iter()
+                        .map(|&tx| Measurement {
+                            tx,
+                            rssi_dbm: e.model().expected(tx, 0, at).unwrap().0
+                                + shift
+                                + 3.0 * (tx as f64 * 1.3 + f64::from(trial)).sin(),
+                            readings: 1,
+                        })
+                        .collect();
+                    let missing = [(n - 1, -92.0)];
+                    for prior in [(0.0, 4.0), (-9.0, 1.0)] {
+                        let bound = e.surface_gap_bound(0, &meas, 0.0).expect("cells held");
+                        let surf = e.surface(0, &meas, &missing, &[], prior).unwrap();
+                        let gap = surf.lse - surf.w.iter().sum::<f64>().ln();
+                        assert!(bound >= gap, "{bound} < {gap} (shift {shift})");
+                    }
+                }
+            }
+        }
+    }
+}

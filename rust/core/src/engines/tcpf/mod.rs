@@ -413,19 +413,22 @@ impl TcpfEngine {
         config: &EngineConfig,
         init: Option<InitialPosition>,
     ) -> Result<Self> {
-        let l = &config.tcpf.likelihood;
-        let model = PathLossModel::for_site(
-            &site,
-            PathLossParams {
-                ble_sd_db: l.ble_sd_db,
-                wifi_sd_db: l.wifi_sd_db,
-                floor_loss_db: l.floor_loss_db,
-                other_floor_sd_db: l.other_floor_sd_db,
-                min_range_m: l.min_range_m,
-                phone_height_m: config.ble.phone_height_m,
-            },
-        );
+        let model = PathLossModel::for_site(&site, Self::path_loss_params(config));
         Self::with_model(site, config, init, Arc::new(model))
+    }
+
+    /// The path-loss model's parameters of [`TcpfEngine::new`]: the
+    /// likelihood's spreads and ranges, the phone's height.
+    fn path_loss_params(config: &EngineConfig) -> PathLossParams {
+        let l = &config.tcpf.likelihood;
+        PathLossParams {
+            ble_sd_db: l.ble_sd_db,
+            wifi_sd_db: l.wifi_sd_db,
+            floor_loss_db: l.floor_loss_db,
+            other_floor_sd_db: l.other_floor_sd_db,
+            min_range_m: l.min_range_m,
+            phone_height_m: config.ble.phone_height_m,
+        }
     }
 
     /// The engine with any [`RadioModel`].

@@ -795,19 +795,9 @@ impl RadioModel for SpreadAlongX {
 /// lets the engine skip could not have re-seeded.
 #[test]
 fn the_surface_bound_is_never_below_the_surface() {
-    use crate::radio::model::PathLossParams;
     let s = site();
     let cfg = EngineConfig::default();
-    let l = &cfg.tcpf.likelihood;
-    let params = PathLossParams {
-        ble_sd_db: l.ble_sd_db,
-        wifi_sd_db: l.wifi_sd_db,
-        floor_loss_db: l.floor_loss_db,
-        other_floor_sd_db: l.other_floor_sd_db,
-        min_range_m: l.min_range_m,
-        phone_height_m: cfg.ble.phone_height_m,
-    };
-    let plain = PathLossModel::for_site(&s, params);
+    let plain = PathLossModel::for_site(&s, TcpfEngine::path_loss_params(&cfg));
     let models: [Arc<dyn RadioModel>; 2] = [Arc::new(plain.clone()), Arc::new(SpreadAlongX(plain))];
     for model in models {
         let mut e = TcpfEngine::with_model(Arc::clone(&s), &cfg, None, model).unwrap();

@@ -1013,16 +1013,16 @@ impl TcpfEngine {
         if far && (reseed > 0.0 || check) {
             self.counts.reseed_far += 1;
         }
-        // the gap that re-seeds: past `recovery_radio_alone_margin`, or
-        // with a dip and the walls' consent past `recovery_margin`; when
-        // the bound says the gap cannot pass it, the surface (the largest
-        // share of an update that computes it) would change nothing
         // on a floor without inner walls nothing but the radio can say the
         // cloud is lost, unless the cloud came from a told position
         // (`recovery_told_open_floor`)
         let open = !self.walled.get(&floor).copied().unwrap_or(false);
         let radio_decides = open && !(self.told_start && self.cfg.recovery_told_open_floor);
         let walls_agree = self.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides;
+        // the gap that re-seeds: past `recovery_radio_alone_margin`, or
+        // with a dip and the walls' consent past `recovery_margin`; when
+        // the bound says the gap cannot pass it, the surface (the largest
+        // share of an update that computes it) would change nothing
         let needed = if reseed > 0.0 && walls_agree {
             self.cfg
                 .recovery_radio_alone_margin

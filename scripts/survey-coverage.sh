@@ -29,28 +29,19 @@
 # out/coverage/SET-eval/NAME/{A,B}-GROUP/ (fpbp eval folders).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-F=${FPBP:-target/release/fpbp}
-D=${FPBP_DATASETS:-../shared/datasets}
+. scripts/lib/folds.sh
 usage="usage: survey-coverage.sh build f1|ipin | eval f1|ipin NAME ENGINE SEEDS [EVAL ARGS...]"
 mode=${1:?$usage}
 set_=${2:?$usage}
 case $set_ in
-f1)
-    mapfile -t ALL < <(ls "$D"/ilc/site1/F1/path_data_files/*.txt.gz | sort)
-    site=out/sites/ilc-site1-F1/site.json
-    groups=(1 3 5 7 9 11 13 15)
-    ;;
-ipin)
-    mapfile -t ALL < <(ls "$D"/ipin2023/logs/*.txt.gz | sort)
-    site=out/sites/ipin2023/site.json
-    groups=(01 02 03 04 21 22 23 24 25 26)
-    ;;
+f1) groups=(1 3 5 7 9 11 13 15) ;;
+ipin) groups=(01 02 03 04 21 22 23 24 25 26) ;;
 *)
     echo "$usage" >&2
     exit 2
     ;;
 esac
-[ -f "$site" ] || { echo "missing $site: run the imports of docs/sites.md" >&2; exit 1; }
+logs_of_set "$set_"
 N=${#ALL[@]}
 root=out/coverage/$set_
 
@@ -92,11 +83,7 @@ if [ "$mode" = build ]; then
             o=$root/$V-$G
             mkdir -p "$o"
             split_logs "$V" "$G" "$o"
-            mapfile -t train <"$o/train.txt"
-            "$F" calibrate --site "$site" --logs "${train[@]}" --split all --wifi \
-                --out "$o/site-wifi.json" --radio-map "$o/radio-map.json" >"$o/calib.txt" 2>&1 ||
-                { echo "calibrate failed: $o/calib.txt" >&2; exit 1; }
-            echo "$V-$G: ${#train[@]} survey logs, $(wc -l <"$o/test.txt") test logs"
+            calibrate_fold "$o"
         done
     done
     exit 0
@@ -110,40 +97,7 @@ out=out/coverage/$set_-eval/$name
 mkdir -p "$out"
 for V in A B; do
     for G in "${groups[@]}"; do
-        o=$root/$V-$G
-        [ -f "$o/radio-map.json" ] || { echo "missing $o: run build first" >&2; exit 1; }
-        mapfile -t test <"$o/test.txt"
-        "$F" eval --site "$o/site-wifi.json" --logs "${test[@]}" --split all \
-            --radio-map "$o/radio-map.json" --engine "$engine" --seeds "$seeds" "$@" \
-            --out "$out/$V-$G" >"$out.$V-$G.log" 2>&1 || {
-            # eval exits non-zero when an engine positioned nothing; its
-            # points.csv (every point without a pose) still counts
-            compgen -G "$out/$V-$G/seed-*/points.csv" >/dev/null ||
-                { echo "eval failed: $out.$V-$G.log" >&2; exit 1; }
-            echo "warning: $V-$G: $(grep -m1 '^error' "$out.$V-$G.log")" >&2
-        }
+        eval_fold "$root/$V-$G" "$out/$V-$G" "$engine" "$seeds" "$@"
     done
 done
-python3 - "$out" <<'EOF'
-import csv, glob, os, sys
-from collections import defaultdict
-out = sys.argv[1]
-for v in "AB":
-    by = defaultdict(list)
-    for d in sorted(glob.glob(f"{out}/{v}-*")):
-        for sd in glob.glob(f"{d}/seed-*"):
-            for r in csv.DictReader(open(f"{sd}/points.csv")):
-                e = r["error_m"]
-                by[(r["engine"], os.path.basename(sd))].append(float(e) if e else None)
-    for eng in sorted({e for e, _ in by}):
-        means, cov = [], []
-        for (e, seed), es in sorted(by.items()):
-            if e != eng:
-                continue
-            ok = [x for x in es if x is not None]
-            means.append(sum(ok) / len(ok))
-            cov.append(len(ok) / len(es))
-        print(f"{v} {eng}: mean {sum(means) / len(means):.2f} m, coverage "
-              f"{100 * sum(cov) / len(cov):.0f} %, seeds {' '.join(f'{m:.2f}' for m in means)}, "
-              f"{len(es)} points")
-EOF
+python3 scripts/lib/pool_points.py "$out" "A=A-*" "B=B-*"

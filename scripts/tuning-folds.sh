@@ -31,27 +31,18 @@
 # Outputs: out/folds/SET/FOLD/ (sites, maps) and out/folds/SET-eval/NAME/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-F=${FPBP:-target/release/fpbp}
-D=${FPBP_DATASETS:-../shared/datasets}
-floor=()
+. scripts/lib/folds.sh
 usage="usage: tuning-folds.sh build f1|f4|ipin | eval f1|f4|ipin NAME ENGINE SEEDS [EVAL ARGS...]"
 mode=${1:?$usage}
 set_=${2:?$usage}
+floor=()
 case $set_ in
-f1)
-    mapfile -t ALL < <(ls "$D"/ilc/site1/F1/path_data_files/*.txt.gz | sort)
-    site=out/sites/ilc-site1-F1/site.json
-    folds=(0 1 2 3 4 5 6 7 8 9 10 11 12)
-    ;;
+f1) folds=(0 1 2 3 4 5 6 7 8 9 10 11 12) ;;
 f4)
-    mapfile -t ALL < <(ls "$D"/ilc/site2/F4/path_data_files/*.txt.gz | sort)
-    site=out/sites/ilc-site2-F4/site.json
     folds=(0 1 2 3 4 5 6 7 8 9 10 11 12)
     floor=(--floor 4)
     ;;
 ipin)
-    mapfile -t ALL < <(ls "$D"/ipin2023/logs/*.txt.gz | sort)
-    site=out/sites/ipin2023/site.json
     folds=()
     for T in 01 02 03 04 21 22 23 24 25 26; do folds+=("$T-A" "$T-B"); done
     ;;
@@ -60,7 +51,7 @@ ipin)
     exit 2
     ;;
 esac
-[ -f "$site" ] || { echo "missing $site: run the imports of docs/sites.md" >&2; exit 1; }
+logs_of_set "$set_"
 N=${#ALL[@]}
 root=out/folds/$set_
 
@@ -92,11 +83,7 @@ if [ "$mode" = build ]; then
         o=$root/$G
         mkdir -p "$o"
         split_logs "$G" "$o"
-        mapfile -t train <"$o/train.txt"
-        "$F" calibrate --site "$site" --logs "${train[@]}" --split all --wifi "${floor[@]}" \
-            --out "$o/site-wifi.json" --radio-map "$o/radio-map.json" >"$o/calib.txt" 2>&1 ||
-            { echo "calibrate failed: $o/calib.txt" >&2; exit 1; }
-        echo "$G: ${#train[@]} survey logs, $(wc -l <"$o/test.txt") test logs"
+        calibrate_fold "$o" "${floor[@]}"
     done
     exit 0
 fi
@@ -108,50 +95,10 @@ shift 5
 out=out/folds/$set_-eval/$name
 mkdir -p "$out"
 for G in "${folds[@]}"; do
-    o=$root/$G
-    [ -f "$o/radio-map.json" ] || { echo "missing $o: run build first" >&2; exit 1; }
-    mapfile -t test <"$o/test.txt"
-    rm=(--radio-map "$o/radio-map.json")
-    [ "${RADIO_MAP:-1}" = 0 ] && rm=()
-    "$F" eval --site "$o/site-wifi.json" --logs "${test[@]}" --split all \
-        "${rm[@]}" --engine "$engine" --seeds "$seeds" "${floor[@]}" "$@" \
-        --out "$out/$G" >"$out.$G.log" 2>&1 || {
-        # eval exits non-zero when an engine positioned nothing; its
-        # points.csv (every point without a pose) still counts
-        compgen -G "$out/$G/seed-*/points.csv" >/dev/null ||
-            { echo "eval failed: $out.$G.log" >&2; exit 1; }
-        echo "warning: $G: $(grep -m1 '^error' "$out.$G.log")" >&2
-    }
+    eval_fold "$root/$G" "$out/$G" "$engine" "$seeds" "${floor[@]}" "$@"
 done
-python3 - "$out" "$set_" <<'EOF'
-import csv, glob, os, sys
-from collections import defaultdict
-out, set_ = sys.argv[1], sys.argv[2]
-kinds = {"": "*"} if set_ != "ipin" else {"A ": "*-A", "B ": "*-B"}
-for label, pat in kinds.items():
-    by = defaultdict(list)
-    for d in sorted(glob.glob(f"{out}/{pat}")):
-        if not os.path.isdir(d):
-            continue
-        for sd in glob.glob(f"{d}/seed-*"):
-            for r in csv.DictReader(open(f"{sd}/points.csv")):
-                e, a = r["error_m"], r["accuracy_m"]
-                by[(r["engine"], os.path.basename(sd))].append(
-                    (float(e), float(a) if a else None) if e else None)
-    for eng in sorted({e for e, _ in by}):
-        means, cov, p80, inacc, n = [], [], [], [], 0
-        for (e, seed), es in sorted(by.items()):
-            if e != eng:
-                continue
-            ok = sorted(x[0] for x in es if x is not None)
-            acc = [x for x in es if x is not None and x[1] is not None]
-            means.append(sum(ok) / len(ok))
-            p80.append(ok[min(len(ok) - 1, int(0.8 * len(ok)))])
-            cov.append(len(ok) / len(es))
-            inacc.append(sum(x[0] <= x[1] for x in acc) / max(1, len(acc)))
-            n = len(es)
-        avg = lambda xs: sum(xs) / len(xs)
-        print(f"{label}{eng}: mean {avg(means):.2f} m, p80 {avg(p80):.2f} m, coverage "
-              f"{100 * avg(cov):.0f} %, in_acc {100 * avg(inacc):.0f} %, "
-              f"seeds {' '.join(f'{m:.2f}' for m in means)}, {n} points")
-EOF
+if [ "$set_" = ipin ]; then
+    python3 scripts/lib/pool_points.py "$out" "A=*-A" "B=*-B"
+else
+    python3 scripts/lib/pool_points.py "$out" "=*"
+fi

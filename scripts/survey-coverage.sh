@@ -33,15 +33,12 @@ cd "$(dirname "$0")/.."
 usage="usage: survey-coverage.sh build f1|ipin | eval f1|ipin NAME ENGINE SEEDS [EVAL ARGS...]"
 mode=${1:?$usage}
 set_=${2:?$usage}
+logs_of_set "$set_" || { echo "$usage" >&2; exit 2; }
 case $set_ in
 f1) groups=(1 3 5 7 9 11 13 15) ;;
 ipin) groups=(01 02 03 04 21 22 23 24 25 26) ;;
-*)
-    echo "$usage" >&2
-    exit 2
-    ;;
+*) echo "$usage" >&2 && exit 2 ;;
 esac
-logs_of_set "$set_"
 N=${#ALL[@]}
 root=out/coverage/$set_
 
@@ -73,8 +70,7 @@ split_logs() {
             fi
         done
     fi
-    printf '%s\n' "${test[@]}" >"$dir/test.txt"
-    printf '%s\n' "${train[@]}" >"$dir/train.txt"
+    write_split "$dir"
 }
 
 if [ "$mode" = build ]; then
@@ -88,16 +84,12 @@ if [ "$mode" = build ]; then
     done
     exit 0
 fi
-[ "$mode" = eval ] || { echo "$usage" >&2; exit 2; }
-name=${3:?$usage}
-engine=${4:?$usage}
-seeds=${5:?$usage}
-shift 5
+eval_args "$@"
 out=out/coverage/$set_-eval/$name
 mkdir -p "$out"
 for V in A B; do
     for G in "${groups[@]}"; do
-        eval_fold "$root/$V-$G" "$out/$V-$G" "$engine" "$seeds" "$@"
+        eval_fold "$root/$V-$G" "$out/$V-$G" "$engine" "$seeds" "${extra[@]}"
     done
 done
 python3 scripts/lib/pool_points.py "$out" "A=A-*" "B=B-*"

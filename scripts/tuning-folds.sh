@@ -35,6 +35,7 @@ cd "$(dirname "$0")/.."
 usage="usage: tuning-folds.sh build f1|f4|ipin | eval f1|f4|ipin NAME ENGINE SEEDS [EVAL ARGS...]"
 mode=${1:?$usage}
 set_=${2:?$usage}
+logs_of_set "$set_" || { echo "$usage" >&2; exit 2; }
 floor=()
 case $set_ in
 f1) folds=(0 1 2 3 4 5 6 7 8 9 10 11 12) ;;
@@ -46,12 +47,7 @@ ipin)
     folds=()
     for T in 01 02 03 04 21 22 23 24 25 26; do folds+=("$T-A" "$T-B"); done
     ;;
-*)
-    echo "$usage" >&2
-    exit 2
-    ;;
 esac
-logs_of_set "$set_"
 N=${#ALL[@]}
 root=out/folds/$set_
 
@@ -74,8 +70,7 @@ split_logs() {
             fi
         done
     fi
-    printf '%s\n' "${test[@]}" >"$dir/test.txt"
-    printf '%s\n' "${train[@]}" >"$dir/train.txt"
+    write_split "$dir"
 }
 
 if [ "$mode" = build ]; then
@@ -87,15 +82,11 @@ if [ "$mode" = build ]; then
     done
     exit 0
 fi
-[ "$mode" = eval ] || { echo "$usage" >&2; exit 2; }
-name=${3:?$usage}
-engine=${4:?$usage}
-seeds=${5:?$usage}
-shift 5
+eval_args "$@"
 out=out/folds/$set_-eval/$name
 mkdir -p "$out"
 for G in "${folds[@]}"; do
-    eval_fold "$root/$G" "$out/$G" "$engine" "$seeds" "${floor[@]}" "$@"
+    eval_fold "$root/$G" "$out/$G" "$engine" "$seeds" "${floor[@]}" "${extra[@]}"
 done
 if [ "$set_" = ipin ]; then
     python3 scripts/lib/pool_points.py "$out" "A=*-A" "B=*-B"

@@ -26,6 +26,24 @@ logs_of_set() {
     [ -f "$site" ] || { echo "missing $site: run the imports of docs/sites.md" >&2; exit 1; }
 }
 
+# write_split DIR: the caller's arrays test and train into DIR/test.txt
+# and DIR/train.txt.
+write_split() {
+    printf '%s\n' "${test[@]}" >"$1/test.txt"
+    printf '%s\n' "${train[@]}" >"$1/train.txt"
+}
+
+# eval_args MODE SET NAME ENGINE SEEDS [EVAL ARGS...]: the eval mode's
+# arguments into name, engine, seeds and the array extra (the caller's
+# $usage when one is missing or MODE is not eval).
+eval_args() {
+    [ "$1" = eval ] || { echo "$usage" >&2; exit 2; }
+    name=${3:?$usage}
+    engine=${4:?$usage}
+    seeds=${5:?$usage}
+    extra=("${@:6}")
+}
+
 # calibrate_fold DIR [CALIBRATE ARGS...]: site-wifi.json and radio-map.json
 # of DIR from its train logs (log in DIR/calib.txt).
 calibrate_fold() {

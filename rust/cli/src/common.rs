@@ -1,6 +1,7 @@
 //! Shared glue of the subcommands: loading sites, configs and logs, running an
 //! engine over a log, and the error metrics `fpbp replay` and `fpbp eval` write.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -368,6 +369,14 @@ pub struct LogMetrics {
     /// learn one: `tcpf`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub step_scale: Option<f64>,
+    /// The phone's RSSI offset the engine estimated, at the log's end
+    /// (heard minus model, dB; engines that estimate one: `tcpf`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rssi_offset_db: Option<f64>,
+    /// The engine's own counters at the log's end (`Engine::diagnostics`:
+    /// re-seedings, wall kills, ...; engines that keep them: `tcpf`).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub engine_counters: BTreeMap<&'static str, u64>,
     pub read: ReadSummary,
 }
 
@@ -415,6 +424,8 @@ impl EngineMetrics {
                 steps: r.out.stats.steps,
                 engine_no_fix_runs: r.out.stats.no_fix,
                 step_scale: r.out.stats.step_scale,
+                rssi_offset_db: r.out.stats.rssi_offset_db,
+                engine_counters: r.out.diagnostics.iter().copied().collect(),
                 read: read.clone(),
             })
             .collect();

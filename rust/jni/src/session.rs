@@ -319,6 +319,9 @@ impl Snapshot {
             "wifi_results": self.bridge.wifi_results,
             "steps": stats.steps,
             "no_fix": stats.no_fix,
+            // null for engines that estimate none
+            "rssi_offset_db": stats.rssi_offset_db,
+            "step_scale": stats.step_scale,
         })
         .to_string()
     }
@@ -727,6 +730,60 @@ mod tests {
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("started with a bad config"),
         }
+    }
+
+    /// The stats JSON carries the engine's online phone RSSI offset and
+    /// step scale (issue 16: "reported in stats"): the same values as the
+    /// engine's own `stats` for the same input; null for an engine that
+    /// estimates none.
+    #[test]
+    fn stats_report_the_phone_offset_the_engine_estimates() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+        let site_json = std::fs::read_to_string(dir.join("site.json")).expect("demo site");
+        let site = Arc::new(site_loader::load_site(&site_json, &dir).expect("site"));
+        let at = InitialPosition {
+            x_m: 12.0,
+            y_m: 8.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        let cfg = EngineConfig::default();
+        let mut e =
+            fpbp_core::engines::tcpf::TcpfEngine::new(site.clone(), &cfg, Some(at)).expect("tcpf");
+        let mut s = Session::start(&site_json, &dir, "", "tcpf", Some(at), None).expect("session");
+        // every beacon heard 9 dB weaker than the site's model says at `at`
+        let p = Vec2::new(at.x_m, at.y_m);
+        let heard: Vec<(String, f64)> = (e.model().transmitters().iter().enumerate())
+            .filter_map(|(k, t)| Some((t.id.clone(), e.model().expected(k, 0, p)?.0 - 9.0)))
+            .collect();
+        assert!(heard.len() >= 4, "demo beacons: {}", heard.len());
+        for second in 1..=30i64 {
+            let t_ns = second * 1_000_000_000;
+            for (id, rssi) in &heard {
+                e.on_ble(&BleObservation {
+                    t_ns,
+                    beacon_id: id.clone(),
+                    rssi_dbm: *rssi,
+                    tx_power_dbm: None,
+                });
+                s.on_ble(t_ns, Some(id.clone()), *rssi, f64::NAN);
+            }
+            for task in [Task::Ble, Task::Fusion] {
+                e.run_task(task, t_ns);
+                s.run_task(task, t_ns);
+            }
+        }
+        let stats: serde_json::Value =
+            serde_json::from_str(&s.snapshot().stats_json()).expect("stats JSON");
+        let core = e.stats();
+        let offset = stats["rssi_offset_db"].as_f64().expect("an offset");
+        assert_eq!(Some(offset), core.rssi_offset_db);
+        assert!(offset < -4.0, "9 dB weaker, estimated {offset} dB");
+        assert_eq!(stats["step_scale"].as_f64(), core.step_scale);
+        let other = Session::from_engine(Box::new(Recorder::default()));
+        let stats: serde_json::Value =
+            serde_json::from_str(&other.snapshot().stats_json()).expect("stats JSON");
+        assert!(stats["rssi_offset_db"].is_null() && stats["step_scale"].is_null());
     }
 
     /// `start`'s data JSON is told apart by its `format`: a radio map goes

@@ -181,4 +181,11 @@ pub trait Engine: Send {
         None
     }
     fn stats(&self) -> EngineStats;
+    /// The engine's own diagnostic counters by name (re-seedings, wall
+    /// kills, ...), for research tools: `fpbp eval` and `replay` write them
+    /// per log (`engine_counters`). Read once at the end of a run, never on
+    /// the hot path; the default has none.
+    fn diagnostics(&self) -> Vec<(&'static str, u64)> {
+        Vec::new()
+    }
 }

@@ -48,6 +48,8 @@ pub struct ReplayOutput {
     /// Compute time of every run of each task, microseconds.
     pub task_us: Vec<(Task, f64)>,
     pub stats: EngineStats,
+    /// [`Engine::diagnostics`] at the end of the replay.
+    pub diagnostics: Vec<(&'static str, u64)>,
     /// Time spanned by the log, seconds.
     pub log_duration_s: f64,
     /// Wall time of the whole replay, seconds.
@@ -151,6 +153,7 @@ impl<'a> Replayer<'a> {
             self.run_due(t);
         }
         self.out.stats = self.engine.stats();
+        self.out.diagnostics = self.engine.diagnostics();
         self.out.log_duration_s = match (self.first_t, self.last_t) {
             (Some(a), Some(b)) => (b - a) as f64 * 1e-9,
             _ => 0.0,

@@ -110,6 +110,49 @@ pub struct TcpfCounts {
     pub step_windows: u64,
 }
 
+impl TcpfCounts {
+    /// Every count with its field's name (the destructuring lists every
+    /// field, so a new count does not compile until it is named here).
+    pub fn named(&self) -> [(&'static str, u64); 16] {
+        let TcpfCounts {
+            global_starts,
+            radio_updates,
+            wall_killed,
+            steps_blocked,
+            reseeded,
+            held,
+            walked,
+            jumps,
+            floor_changes,
+            floor_changes_off_map,
+            anchor_queries,
+            anchor_reseeded,
+            reseed_far,
+            anchors_dropped_far,
+            magnetic_updates,
+            step_windows,
+        } = *self;
+        [
+            ("global_starts", global_starts),
+            ("radio_updates", radio_updates),
+            ("wall_killed", wall_killed),
+            ("steps_blocked", steps_blocked),
+            ("reseeded", reseeded),
+            ("held", held),
+            ("walked", walked),
+            ("jumps", jumps),
+            ("floor_changes", floor_changes),
+            ("floor_changes_off_map", floor_changes_off_map),
+            ("anchor_queries", anchor_queries),
+            ("anchor_reseeded", anchor_reseeded),
+            ("reseed_far", reseed_far),
+            ("anchors_dropped_far", anchors_dropped_far),
+            ("magnetic_updates", magnetic_updates),
+            ("step_windows", step_windows),
+        ]
+    }
+}
+
 /// One candidate place of the reference-scan query, with its weight
 /// (the weights of one query sum to 1).
 type Anchor = WeightedCandidate;
@@ -1755,6 +1798,10 @@ impl Engine for TcpfEngine {
 
     fn pose(&self) -> Option<Pose> {
         self.pose
+    }
+
+    fn diagnostics(&self) -> Vec<(&'static str, u64)> {
+        self.counts.named().to_vec()
     }
 
     fn stats(&self) -> EngineStats {

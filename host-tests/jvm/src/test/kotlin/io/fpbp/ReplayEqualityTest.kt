@@ -97,6 +97,10 @@ class ReplayEqualityTest {
                 fail("tracks differ at pose $k: JVM ${jvm.getOrNull(k)} vs Rust ${ref.track.getOrNull(k)} (sizes ${jvm.size} vs ${ref.track.size})")
             }
             assertEquals(ref.stats, stats, "engine counters differ")
+            if (engineName == "tcpf") {
+                // the online phone RSSI offset reaches the app (issue 16)
+                assertTrue(Regex("\"rssi_offset_db\":-?[0-9]").containsMatchIn(stats), "no RSSI offset in $stats")
+            }
             println("replay equality: ${jvm.size} poses identical bit for bit; stats identical")
         }
     }

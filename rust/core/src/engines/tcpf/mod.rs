@@ -85,10 +85,11 @@ pub struct TcpfCounts {
     pub reseeded: u64,
     /// Fusion runs that held the published point instead of jumping
     /// through a wall; moves of it along a walk through the doors toward
-    /// the cloud after the hold ran out; jumps where the map had no way.
+    /// the cloud after the hold ran out; jumps where the map had no way
+    /// (not eval's `jumps`, which counts every jump of the published track).
     pub held: u64,
     pub walked: u64,
-    pub jumps: u64,
+    pub jumps_no_way: u64,
     pub floor_changes: u64,
     /// Barometer floor changes not made: the new floor's plan has no
     /// walkable point within `floor_snap_m` of the track (a stairwell the
@@ -122,7 +123,7 @@ impl TcpfCounts {
             reseeded,
             held,
             walked,
-            jumps,
+            jumps_no_way,
             floor_changes,
             floor_changes_off_map,
             anchor_queries,
@@ -140,7 +141,7 @@ impl TcpfCounts {
             ("reseeded", reseeded),
             ("held", held),
             ("walked", walked),
-            ("jumps", jumps),
+            ("jumps_no_way", jumps_no_way),
             ("floor_changes", floor_changes),
             ("floor_changes_off_map", floor_changes_off_map),
             ("anchor_queries", anchor_queries),
@@ -1434,7 +1435,7 @@ impl TcpfEngine {
             }
             _ => {
                 self.hold_runs = 0;
-                self.counts.jumps += 1;
+                self.counts.jumps_no_way += 1;
                 Some(target)
             }
         }

@@ -128,6 +128,9 @@ class FpbpEngine private constructor(
     /** Input/output counters as JSON (rejected samples are counted here). */
     fun statsJson(): String = NativeBridge.stats(handle)
 
+    /** The same counters and the engine's online estimates (phone RSSI offset, step scale), typed. */
+    fun stats(): EngineStats = EngineStats.parse(statsJson())
+
     /** Stops the engine. Safe to call more than once and from several threads. */
     override fun close() {
         if (closed.compareAndSet(false, true)) {

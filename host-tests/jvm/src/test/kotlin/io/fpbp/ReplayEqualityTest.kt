@@ -100,6 +100,11 @@ class ReplayEqualityTest {
             if (engineName == "tcpf") {
                 // the online phone RSSI offset reaches the app (issue 16)
                 assertTrue(Regex("\"rssi_offset_db\":-?[0-9]").containsMatchIn(stats), "no RSSI offset in $stats")
+                // and reads the same through the typed accessor
+                val typed = e.stats()
+                assertEquals("tcpf", typed.engine)
+                assertTrue(typed.rssiOffsetDb != null && typed.stepScale != null, "typed stats lack the estimates: $typed")
+                assertTrue(typed.steps > 0, "no steps counted: $typed")
             }
             println("replay equality: ${jvm.size} poses identical bit for bit; stats identical")
         }

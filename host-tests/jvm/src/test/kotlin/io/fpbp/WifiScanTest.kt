@@ -5,8 +5,16 @@ import org.junit.jupiter.api.Test
 
 /** onWifiScan: entries counted, bad ones and malformed scans counted as rejected, never thrown. */
 class WifiScanTest {
-    private fun stat(e: FpbpEngine, key: String) =
-        Regex("\"$key\":(\\d+)").find(e.statsJson())?.groupValues?.get(1)?.toLong() ?: -1
+    private fun stat(e: FpbpEngine, key: String): Long =
+        e.stats().let {
+            when (key) {
+                "wifi_scans" -> it.wifiScans
+                "wifi_results" -> it.wifiResults
+                "bridge_rejected" -> it.bridgeRejected
+                "rejected_inputs" -> it.rejectedInputs
+                else -> error("no such counter in this test: $key")
+            }
+        }
 
     @Test
     fun scansAreForwardedAndBadInputCounted() {

@@ -190,9 +190,12 @@ class MainActivity : Activity() {
         if (want != planView.floorId && want in floorIds) showFloor(want)
         planView.setPose(pose, positioning?.currentBlePosition())
         val geo = if (pose.latDeg != null) " %.6f, %.6f".format(Locale.US, pose.latDeg, pose.lonDeg) else ""
-        poseView.text = "floor %d (%.0f %%)  x %.1f m  y %.1f m  ±%.1f m  bearing %.0f°  %s%s".format(
+        // the phone's RSSI offset the engine learns while walking (tcpf): a
+        // site engineer sees at a glance how this phone reads against the survey
+        val offset = positioning?.stats()?.rssiOffsetDb?.let { "  phone RSSI %+.1f dB".format(Locale.US, it) } ?: ""
+        poseView.text = "floor %d (%.0f %%)  x %.1f m  y %.1f m  ±%.1f m  bearing %.0f°  %s%s%s".format(
             Locale.US, pose.floor, 100 * pose.floorProb, pose.xM, pose.yM, pose.accuracyM, pose.bearingDeg,
-            pose.source.name.lowercase().replace('_', ' '), geo,
+            pose.source.name.lowercase().replace('_', ' '), geo, offset,
         )
     }
 

@@ -14,6 +14,7 @@ import android.os.Looper
 import android.os.SystemClock
 import io.fpbp.BeaconFilter
 import io.fpbp.Clock
+import io.fpbp.EngineStats
 import io.fpbp.FpbpDefaults
 import io.fpbp.FpbpEngine
 import io.fpbp.InitialPosition
@@ -156,6 +157,12 @@ class FpbpPositioning @JvmOverloads constructor(
 
     /** The engine's counters (JSON), or null when stopped. Never waits for a task. */
     fun statsJson(): String? = engine?.let { e -> runCatching { e.statsJson() }.getOrNull() }
+
+    /**
+     * The engine's counters and online estimates (the phone's RSSI offset,
+     * the step scale), typed; null when stopped. Never waits for a task.
+     */
+    fun stats(): EngineStats? = engine?.let { e -> runCatching { e.stats() }.getOrNull() }
 
     /** The latest pose, null before a fix or when stopped. Never waits for a running task. */
     fun currentPose(): Pose? = engine?.let { e -> runCatching { e.pose() }.getOrNull() }
@@ -401,9 +408,8 @@ class FpbpPositioning @JvmOverloads constructor(
         val pose = currentPose()
         dispatcher.offer(pose)
         if (++ticks % STATUS_TICKS != 0) return
-        val stats = statsJson() ?: return
-        fun stat(key: String) = Regex("\"$key\":(\\d+)").find(stats)?.groupValues?.get(1)?.toLong() ?: 0
-        tracker.tick(stat("ble_observations") - stat("unknown_beacons"), pose)
+        val stats = stats() ?: return
+        tracker.tick(stats.bleObservations - stats.unknownBeacons, pose)
         publishStatus()
     }
 

@@ -64,6 +64,8 @@ class SampleActivityRoboTest {
         assertTrue("no pose on floor 1 shown: ${activity.poseText}", RoboSupport.idleUntil { activity.shownFloor == 1 })
         assertTrue(activity.poseText, activity.poseText.startsWith("floor 1 "))
         assertTrue("lat/lon missing: ${activity.poseText}", activity.poseText.contains("48.0000"))
+        // the default engine (tcpf) estimates the phone's offset; the pose line shows it
+        assertTrue("no phone offset shown: ${activity.poseText}", activity.poseText.contains(" phone RSSI "))
         assertTrue(activity.statusText, activity.statusText.startsWith("positioning") || activity.statusText.startsWith("waiting"))
         // Rotation: the positioning object carries over, listeners do not pile up.
         controller.recreate()

@@ -37,8 +37,10 @@ class WifiSourceRoboTest : OpenSitePositioningTest() {
         RoboSupport.idleUntil(300) { false }
         app.sendBroadcast(Intent(WifiManager.SCAN_RESULTS_AVAILABLE_ACTION))
         assertTrue(RoboSupport.idleUntil { RoboSupport.stat(p.statsJson(), "wifi_scans") >= 1L })
-        val stats = p.statsJson()
-        assertEquals(stats, 2L * RoboSupport.stat(stats, "wifi_scans"), RoboSupport.stat(stats, "wifi_results"))
-        assertTrue(stats, RoboSupport.stat(stats, "bridge_rejected") >= 1L)
+        // the typed stats the app reads say the same as the JSON
+        val stats = checkNotNull(p.stats()) { "no stats while running" }
+        assertEquals(stats.toString(), 2L * stats.wifiScans, stats.wifiResults)
+        assertTrue(stats.toString(), stats.bridgeRejected >= 1L)
+        assertEquals(RoboSupport.stat(p.statsJson(), "wifi_scans"), stats.wifiScans)
     }
 }

@@ -5,17 +5,6 @@ import org.junit.jupiter.api.Test
 
 /** onWifiScan: entries counted, bad ones and malformed scans counted as rejected, never thrown. */
 class WifiScanTest {
-    private fun stat(e: FpbpEngine, key: String): Long =
-        e.stats().let {
-            when (key) {
-                "wifi_scans" -> it.wifiScans
-                "wifi_results" -> it.wifiResults
-                "bridge_rejected" -> it.bridgeRejected
-                "rejected_inputs" -> it.rejectedInputs
-                else -> error("no such counter in this test: $key")
-            }
-        }
-
     @Test
     fun scansAreForwardedAndBadInputCounted() {
         TestSupport.startOpen().use { e ->
@@ -27,17 +16,17 @@ class WifiScanTest {
                 intArrayOf(2412, 5180, 2412, 2412, 2412),
                 longArrayOf(900, 1_000, 1_000, 1_000, 1_000),
             )
-            assertEquals(1, stat(e, "wifi_scans"))
-            assertEquals(2, stat(e, "wifi_results"))
-            assertEquals(3, stat(e, "bridge_rejected"))
+            assertEquals(1L, e.stats().wifiScans)
+            assertEquals(2L, e.stats().wifiResults)
+            assertEquals(3L, e.stats().bridgeRejected)
             // a result seen after its scan, mismatched lengths, null arrays, too many results
             e.onWifiScan(2_000, arrayOf("aa:bb:cc:dd:ee:01"), doubleArrayOf(-50.0), intArrayOf(2412), longArrayOf(2_001))
             NativeBridge.onWifiScan(h, 3_000, arrayOf("aa:bb:cc:dd:ee:01"), doubleArrayOf(-50.0, -51.0), intArrayOf(2412), longArrayOf(0))
             NativeBridge.onWifiScan(h, 3_000, null, null, null, null)
             val n = NativeBridge.MAX_WIFI_RESULTS + 1
             NativeBridge.onWifiScan(h, 4_000, Array(n) { "aa:bb:cc:dd:ee:01" }, DoubleArray(n) { -50.0 }, IntArray(n) { 2412 }, LongArray(n))
-            assertEquals(1, stat(e, "wifi_scans"))
-            assertEquals(3 + 4, stat(e, "bridge_rejected"))
+            assertEquals(1L, e.stats().wifiScans)
+            assertEquals(3L + 4, e.stats().bridgeRejected)
             // the largest scan allowed and an empty one (nothing heard) are forwarded
             val m = NativeBridge.MAX_WIFI_RESULTS
             NativeBridge.onWifiScan(
@@ -45,8 +34,8 @@ class WifiScanTest {
                 IntArray(m) { 2437 }, LongArray(m) { 4_000 },
             )
             e.onWifiScan(6_000, arrayOf(), doubleArrayOf(), intArrayOf(), longArrayOf())
-            assertEquals(3, stat(e, "wifi_scans"))
-            assertEquals(2L + m, stat(e, "wifi_results"))
+            assertEquals(3L, e.stats().wifiScans)
+            assertEquals(2L + m, e.stats().wifiResults)
         }
     }
 }

@@ -52,8 +52,8 @@ class BleSourceRoboTest : OpenSitePositioningTest() {
         val cb: ScanCallback = scanner.scanCallbacks.single()
         for (k in 0 until 12) cb.onScanResult(ScanSettingsCallbackType, advert("00:00:00:00:00:0${k % 4 + 1}", -60 - k))
         cb.onScanResult(ScanSettingsCallbackType, advert("AA:BB:CC:DD:EE:FF", -70))
-        assertTrue(RoboSupport.idleUntil { RoboSupport.stat(p.statsJson(), "ble_observations") == 13L })
-        assertEquals("the stranger is not a site beacon", 1, RoboSupport.stat(p.statsJson(), "unknown_beacons"))
+        assertTrue(RoboSupport.idleUntil { p.stats()?.bleObservations == 13L })
+        assertEquals("the stranger is not a site beacon", 1L, p.stats()?.unknownBeacons)
     }
 
     @Test

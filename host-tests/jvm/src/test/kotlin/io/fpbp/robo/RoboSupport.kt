@@ -22,10 +22,6 @@ object RoboSupport {
         shadowOf(Looper.getMainLooper()).idle()
         return done()
     }
-
-    /** `stats` counter [key] of a JSON stats text, -1 when absent. */
-    fun stat(json: String?, key: String): Long =
-        json?.let { Regex("\"$key\":(\\d+)").find(it)?.groupValues?.get(1)?.toLong() } ?: -1
 }
 
 /** Base of the tests that run one [FpbpPositioning] on the open site: started by [start], closed after each test. */

@@ -47,8 +47,8 @@ class SensorSourceRoboTest : OpenSitePositioningTest() {
                 SensorEventBuilder.newBuilder().setSensor(gyrSensor).setValues(floatArrayOf(0.0f, 0.01f, 0.0f)).setTimestamp(t).build(),
             )
         }
-        assertTrue(RoboSupport.idleUntil { RoboSupport.stat(p.statsJson(), "sensor_events") == 40L })
-        assertEquals(0L, RoboSupport.stat(p.statsJson(), "bridge_rejected"))
+        assertTrue(RoboSupport.idleUntil { p.stats()?.sensorEvents == 40L })
+        assertEquals(0L, p.stats()?.bridgeRejected)
         val s = p.status
         assertTrue(Problem.SENSOR_MISSING in s.problems)
         assertEquals(

@@ -151,6 +151,7 @@ pub fn start_for(
 
 /// Builds engines by name (the real factory, or a test double).
 pub type EngineBuilder<'a> = dyn Fn(&str, Arc<Site>, &EngineConfig, Option<InitialPosition>) -> anyhow::Result<Box<dyn Engine>>
+    + Sync
     + 'a;
 
 /// The core's factory.

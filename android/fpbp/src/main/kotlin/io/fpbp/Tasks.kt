@@ -48,14 +48,17 @@ class FusionTask(
  * has no fusion task).
  *
  * A task that throws is not rescheduled by its executor; the first such error
- * is kept in [lastError] and both tasks stop. [close] stops the executors and
- * waits for a running task to end (call it before [FpbpEngine.close]).
+ * is kept in [lastError], both tasks stop and [onError] receives it once (on
+ * the failing task's thread; the Android facade turns it into
+ * [PositioningState.FAILED]). [close] stops the executors and waits for a
+ * running task to end (call it before [FpbpEngine.close]).
  */
 class TaskScheduler @JvmOverloads constructor(
     private val engine: FpbpEngine,
     private val clock: Clock,
     onPose: ((Pose) -> Unit)? = null,
     afterTask: (() -> Unit)? = null,
+    private val onError: ((Throwable) -> Unit)? = null,
 ) : AutoCloseable {
     private val gmlExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-gml"))
     private val fusionExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-fusion"))
@@ -92,9 +95,10 @@ class TaskScheduler @JvmOverloads constructor(
                 task.run()
                 runs.incrementAndGet()
             } catch (t: Throwable) {
-                error.compareAndSet(null, t)
+                val first = error.compareAndSet(null, t)
                 gmlExecutor.shutdown()
                 fusionExecutor.shutdown()
+                if (first) onError?.invoke(t)
                 throw t
             }
         }

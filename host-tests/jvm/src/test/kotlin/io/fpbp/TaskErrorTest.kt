@@ -19,19 +19,20 @@ class TaskErrorTest {
             val reported = AtomicReference<Throwable?>(null)
             val reports = AtomicInteger()
             val latch = CountDownLatch(1)
-            val s = TaskScheduler(
-                e, Clock { System.nanoTime() },
-                afterTask = { throw boom },
-                onError = { t ->
-                    reports.incrementAndGet()
-                    reported.set(t)
-                    latch.countDown()
-                },
-            )
+            val s = TaskScheduler(e, Clock { System.nanoTime() }, afterTask = { throw boom })
+            s.onError = { t ->
+                reports.incrementAndGet()
+                reported.set(t)
+                latch.countDown()
+            }
             assertTrue(latch.await(30, TimeUnit.SECONDS), "no error reported")
             s.close()
             assertSame(boom, reported.get())
             assertSame(boom, s.lastError)
+            // reported once in all: a listener set later does not hear it again
+            val late = AtomicReference<Throwable?>(null)
+            s.onError = { late.set(it) }
+            assertEquals(null, late.get(), "the error was already reported")
             assertEquals(1, reports.get())
         }
     }

@@ -503,13 +503,9 @@ private class PositioningCore(
         }
     }
 
-    private fun newTasks(e: FpbpEngine) = TaskScheduler(
-        e,
-        clock,
-        onPose = null,
-        afterTask = { dispatcher.offer(currentPose()) },
-        onError = { t -> engineFailed(e, t) },
-    )
+    private fun newTasks(e: FpbpEngine) = TaskScheduler(e, clock, null) { dispatcher.offer(currentPose()) }.also {
+        it.onError = { t -> engineFailed(e, t) }
+    }
 
     fun stop() = onControlAsync { teardown() }
 

@@ -381,8 +381,8 @@ pub struct LogMetrics {
     pub read: ReadSummary,
 }
 
-/// One engine's object in metrics.json (DESIGN.md's keys plus `no_fix`,
-/// `init` and per-log rows).
+/// One engine's object in metrics.json (the keys of docs/ARCHITECTURE.md
+/// "Evaluation protocol" plus `no_fix`, `init` and per-log rows).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EngineMetrics {
     pub engine: String,

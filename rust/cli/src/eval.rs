@@ -1,5 +1,6 @@
-//! `fpbp eval`: engines over logs -> DIR/metrics.json (DESIGN.md keys per
-//! engine, per-log rows), DIR/cdf.png, a progress bar and a table.
+//! `fpbp eval`: engines over logs -> DIR/metrics.json (the keys of
+//! docs/ARCHITECTURE.md "Evaluation protocol" per engine, per-log rows),
+//! DIR/cdf.png, a progress bar and a table.
 
 use std::path::{Path, PathBuf};
 
@@ -9,8 +10,9 @@ use serde::Serialize;
 use crate::common::{self, EngineBuilder, EngineMetrics, InitMode, LogRun, ReadSummary};
 use crate::plot;
 
-/// Which logs of the sorted list to evaluate (DESIGN.md's fixed split: sort by
-/// file name; even indices, from 0, calibrate; odd indices test).
+/// Which logs of the sorted list to evaluate (the fixed split of
+/// docs/ARCHITECTURE.md "Evaluation protocol": sort by file name; even
+/// indices, from 0, calibrate; odd indices test).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {

@@ -136,6 +136,7 @@ class MainActivity : Activity() {
             addView(floorButton)
             addView(recordButton)
             addView(shareButton)
+            addView(surveyButton())
         }
         setContentView(
             LinearLayout(this).apply {
@@ -147,6 +148,16 @@ class MainActivity : Activity() {
             },
         )
         planView.onTap = { x, y -> onTap(x, y) }
+    }
+
+    /** Opens the survey screen (SurveyActivity) on the same site. */
+    private fun surveyButton() = Button(this).apply {
+        text = "Survey"
+        setOnClickListener {
+            val open = Intent(this@MainActivity, SurveyActivity::class.java)
+            intent?.getStringExtra(EXTRA_SITE_DIR)?.let { open.putExtra(SurveyActivity.EXTRA_SITE_DIR, it) }
+            startActivity(open)
+        }
     }
 
     private fun loadSite() {

@@ -195,7 +195,8 @@ class SurveyActivity : Activity() {
         showCounts()
     }
 
-    private fun toggleRecording() {
+    /** The Start / Stop button: starts a survey into a new file in [LogFileProvider.logDir], or stops and saves it. */
+    fun toggleRecording() {
         val s = survey ?: return
         if (s.isRecording) {
             val f = s.stop()

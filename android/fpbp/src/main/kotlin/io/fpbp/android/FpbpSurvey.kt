@@ -122,6 +122,7 @@ class FpbpSurvey @JvmOverloads constructor(
         ) { r -> Thread(r, "fpbp-survey-io").apply { isDaemon = true } }
         track.clear()
         file = out
+        lastWriter = w
         writer = w
         io = exec
         tracker.started()
@@ -147,10 +148,8 @@ class FpbpSurvey @JvmOverloads constructor(
     /** The marks of the current (or last) survey, in order: the walked track. */
     fun marks(): List<SurveyMark> = synchronized(track) { ArrayList(track) }
 
-    /** What the file holds so far (a few events may still wait in the queue). */
-    fun counts(): SurveyCounts = writer?.counts() ?: lastCounts
-
-    @Volatile private var lastCounts = SurveyCounts()
+    /** What the current (or last) file holds so far (a few events may still wait in the queue). */
+    fun counts(): SurveyCounts = (writer ?: lastWriter)?.counts() ?: SurveyCounts()
 
     /** Why writing stopped (an I/O error such as a full disk), or null. */
     val failure: String? get() = (writer ?: lastWriter)?.failure
@@ -178,8 +177,6 @@ class FpbpSurvey @JvmOverloads constructor(
         exec?.shutdown()
         exec?.awaitTermination(30, TimeUnit.SECONDS)
         w.close()
-        lastCounts = w.counts()
-        lastWriter = w
         return file
     }
 
@@ -197,6 +194,11 @@ class FpbpSurvey @JvmOverloads constructor(
      */
     private inline fun submit(countDrop: Boolean = true, crossinline block: () -> Unit): Boolean {
         val exec = io ?: return false
+        if (exec.queue.remainingCapacity() == 0) {
+            // full (the disk stalls): drop without the cost of a rejection exception per sample
+            if (countDrop) writer?.dropped()
+            return false
+        }
         return try {
             exec.execute { block() }
             true

@@ -312,6 +312,38 @@ class SurveyRecordingTest {
         assertEquals("WiFi transmitters with grids in the radio map:\n$out", aps.map { it.first }.toSet(), wifiGrids)
     }
 
+    /**
+     * Guards the bound: with a queue of one event, a flood of sensor samples
+     * is partly dropped, and every sample is either in the file or counted
+     * as dropped; marks made during the flood are all written.
+     */
+    @Test
+    fun aFullQueueDropsAndCountsEventsButNeverAMark() {
+        val clock = ManualClock(0)
+        val s = FpbpSurvey(app, FpbpSurvey.Options(radios = emptySet(), queueCapacity = 1), clock)
+        val file = File(tmp.newFolder("flood"), "flood.log")
+        s.use {
+            s.start(file)
+            val acc = sensorManager.getDefaultSensor(Sensor.TYPE_ACCELEROMETER)!!
+            val sent = 5_000
+            for (k in 1..sent) {
+                clock.set(k * 1_000_000L)
+                shadowOf(sensorManager).sendSensorEventToListeners(
+                    SensorEventBuilder.newBuilder().setSensor(acc).setValues(floatArrayOf(0.1f, 0.2f, 9.8f)).setTimestamp(k * 1_000_000L).build(),
+                )
+                if (k % 1_000 == 0) s.mark(k / 1_000.0, 1.0, 0)
+            }
+            s.stop()
+            val c = s.counts()
+            val log = file.bufferedReader().use { NativeLogReader.read(it) }
+            assertEquals(c.sensorSamples.toInt(), log.events.count { it is LogEvent.Sensor })
+            assertEquals("written + dropped = sent ($c)", sent.toLong(), c.sensorSamples + c.dropped)
+            assertEquals(5, log.events.count { it is LogEvent.Truth })
+            assertEquals(5L, c.marks)
+            println("queue of 1: $sent samples sent, ${c.sensorSamples} written, ${c.dropped} dropped")
+        }
+    }
+
     /** The sample app's survey screen: taps on the plan while recording become marks; no engine runs. */
     @Test
     fun surveyScreenTurnsTapsIntoMarks() {

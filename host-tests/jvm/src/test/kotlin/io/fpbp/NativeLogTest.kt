@@ -34,7 +34,8 @@ class NativeLogTest {
                     t,
                     List(r.nextInt(6)) {
                         val mac = List(6) { "%02x".format(r.nextInt(256)) }.joinToString(":")
-                        WifiResult(mac, -30.0 - r.nextInt(65), if (r.nextBoolean()) 2412 + 5 * r.nextInt(13) else 5180 + 20 * r.nextInt(8), t - r.nextInt(3_000_000))
+                        val freq = if (r.nextBoolean()) 2412 + 5 * r.nextInt(13) else 5180 + 20 * r.nextInt(8)
+                        WifiResult(mac, -30.0 - r.nextInt(65), freq, t - r.nextInt(3_000_000))
                     },
                 )
             }

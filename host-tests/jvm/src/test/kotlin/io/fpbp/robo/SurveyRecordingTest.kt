@@ -110,9 +110,11 @@ class SurveyRecordingTest {
         // empty: the survey's own startScan must not broadcast (only the test's scans count)
         shadowOf(wifi).setScanResults(emptyList())
         val sensors = shadowOf(sensorManager)
-        for (t in intArrayOf(Sensor.TYPE_ACCELEROMETER, Sensor.TYPE_GYROSCOPE, Sensor.TYPE_MAGNETIC_FIELD, Sensor.TYPE_ROTATION_VECTOR, Sensor.TYPE_PRESSURE)) {
-            sensors.addSensor(ShadowSensor.newInstance(t))
-        }
+        // the sensors of the demo logs (no game rotation vector)
+        val types = intArrayOf(
+            Sensor.TYPE_ACCELEROMETER, Sensor.TYPE_GYROSCOPE, Sensor.TYPE_MAGNETIC_FIELD, Sensor.TYPE_ROTATION_VECTOR, Sensor.TYPE_PRESSURE,
+        )
+        for (t in types) sensors.addSensor(ShadowSensor.newInstance(t))
     }
 
     private fun outDir(): File =
@@ -196,7 +198,9 @@ class SurveyRecordingTest {
         val sent = byKind.values.sum().toLong()
         assertTrue(
             "the recorder did not get every event: ${s.counts()}",
-            RoboSupport.idleUntil(30_000) { s.counts().let { it.sensorSamples == sent && it.bleAdverts == ble.toLong() && it.marks == marks.size.toLong() } },
+            RoboSupport.idleUntil(30_000) {
+                s.counts().let { it.sensorSamples == sent && it.bleAdverts == ble.toLong() && it.marks == marks.size.toLong() }
+            },
         )
         assertEquals(file, s.stop())
         return Fed(byKind, ble, bleIds, scans, results, marks)
@@ -292,7 +296,8 @@ class SurveyRecordingTest {
         val p = ProcessBuilder(cmd).redirectErrorStream(true).start()
         val out = p.inputStream.bufferedReader().readText()
         assertTrue("calibrate did not finish", p.waitFor(300, TimeUnit.SECONDS))
-        println(out.lines().filter { it.startsWith("wrote") || it.startsWith("WiFi") || it.startsWith("radio map") || it.contains("paths,") }.joinToString("\n"))
+        val summary = out.lines().filter { l -> listOf("wrote", "WiFi", "radio map").any { l.startsWith(it) } || l.contains("paths,") }
+        println(summary.joinToString("\n"))
         assertEquals("fpbp calibrate refused the survey:\n$out", 0, p.exitValue())
         assertTrue("a survey file was skipped:\n$out", !out.contains("skipped"))
         // every synthetic AP fitted and placed within 5 m of where it is (two walks: calibrate exits 0

@@ -60,10 +60,10 @@ import kotlin.math.roundToInt
  *
  * Guards: the recorder's format (v2 header, WIFI lines the Rust reader
  * takes, TRUTH rows), that no source's events are lost or duplicated, that
- * marks carry the time they were made (a mark stamped at the wrong time
- * places every reading wrongly and the AP fit fails the distance check),
- * and that the survey is what calibrate needs (3 walks: `min_paths`;
- * radio map: `min_walks`).
+ * marks carry the time of their tap (calibrate places every reading
+ * between two marks by their times), and that the survey is what
+ * calibrate needs: with two of the walks it exits 0 but fits no access
+ * point (`ble.calibration.min_paths` 3), which the distance check fails.
  */
 @RunWith(FpbpRobolectricRunner::class)
 @Config(manifest = Config.NONE, sdk = [35])
@@ -189,7 +189,9 @@ class SurveyRecordingTest {
                 }
                 is LogEvent.Truth -> if (e.tNs >= nextMarkNs || e === truth.last()) {
                     // the walker taps where they stand (the clock is the tap's time)
-                    marks.add(s.mark(e.xM, e.yM, e.floor ?: 0))
+                    val m = s.mark(e.xM, e.yM, e.floor ?: 0)
+                    assertEquals("a mark carries the time of its tap", e.tNs, m.tNs)
+                    marks.add(m)
                     nextMarkNs = e.tNs + 4_000_000_000L
                 }
                 else -> Unit

@@ -1,8 +1,11 @@
 #!/usr/bin/env bash
 # JVM host verification of the JNI surface (called by scripts/test.sh).
 #
-# 1. builds libfpbp for the host and the two reference examples
-#    (rust/jni/examples/{replay_reference,log_echo}.rs);
+# 1. builds libfpbp for the host, the two reference examples
+#    (rust/jni/examples/{replay_reference,log_echo}.rs) and the `fpbp` CLI
+#    (SurveyRecordingTest runs `fpbp calibrate --wifi --radio-map` on the
+#    survey files the library recorded; they stay in
+#    $CARGO_TARGET_DIR/fpbp-host-tests/survey);
 # 2. computes the pure-Rust replay of a shipped log (the reference track);
 # 3. with Maven (batch, quiet): compiles the Kotlin library (android/fpbp) and
 #    the sample app sources (android/app, against Robolectric's android-all
@@ -41,6 +44,8 @@ fi
 
 echo "== cargo build --release -p fpbp-jni (libfpbp + reference examples)"
 cargo build --release -p fpbp-jni --lib --examples
+echo "== cargo build --release -p fpbp-cli (the fpbp binary: calibrate on the recorded survey)"
+cargo build --release -p fpbp-cli --bin fpbp
 lib="$target/release"
 [ -f "$lib/libfpbp.so" ] || [ -f "$lib/libfpbp.dylib" ] || { echo "libfpbp not found in $lib"; exit 1; }
 
@@ -90,6 +95,7 @@ props+=(
   "-Dfpbp.replay.engine=$engine"
   "-Dfpbp.replay.init=$init"
   "-Dfpbp.log_echo=$lib/examples/log_echo"
+  "-Dfpbp.survey.dir=$out/survey"
 )
 if [ $bench -eq 1 ]; then
   props+=("-Dsurefire.groups=bench" "-Dsurefire.excludedGroups=" "-Dtest=JniOverheadBench" "-Dfpbp.checkjni=")

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # JVM host verification of the JNI surface (called by scripts/test.sh).
 #
-# 1. builds libfpbp for the host and the two reference examples
+# 1. builds libfpbp for the host with the `self-test` feature (the test hooks
+#    of io.fpbp.NativeSelfTest) and the two reference examples
 #    (rust/jni/examples/{replay_reference,log_echo}.rs);
 # 2. computes the pure-Rust replay of a shipped log (the reference track);
 # 3. with Maven (batch, quiet): compiles the Kotlin library (android/fpbp) and
@@ -39,8 +40,10 @@ if ! command -v mvn >/dev/null || ! command -v java >/dev/null; then
   exit 0
 fi
 
-echo "== cargo build --release -p fpbp-jni (libfpbp + reference examples)"
-cargo build --release -p fpbp-jni --lib --examples
+# The self-test feature adds the test hooks of io.fpbp.NativeSelfTest (the
+# shipped Android library is built without them).
+echo "== cargo build --release -p fpbp-jni --features self-test (libfpbp + reference examples)"
+cargo build --release -p fpbp-jni --features self-test --lib --examples
 lib="$target/release"
 [ -f "$lib/libfpbp.so" ] || [ -f "$lib/libfpbp.dylib" ] || { echo "libfpbp not found in $lib"; exit 1; }
 

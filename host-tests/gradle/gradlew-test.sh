@@ -17,7 +17,7 @@
 #    passed through; the second run works with the zip gone (no download);
 #    a wrong distributionSha256Sum fails before anything is unpacked; no
 #    checksum property still runs (with a note); without unzip on PATH the
-#    JDK's jar unpacks.
+#    JDK's jar unpacks; two first runs at once both run and install once.
 # 4. With a gradle/wrapper/gradle-wrapper.jar present, gradlew runs the jar's
 #    org.gradle.wrapper.GradleWrapperMain (a stand-in compiled here) with the
 #    arguments, as Gradle's own script does (skipped without javac).
@@ -125,6 +125,20 @@ case "$out" in *"FAKE GRADLE in "*": again") ;; *) fail "second run printed: $ou
 case "$out" in *Downloading*) fail "second run downloaded again" ;; esac
 mv "$zip.away" "$zip"
 
+# Two first runs at once (an IDE and a terminal): both run, one install.
+guh2="$tmp/guh-par"
+(GRADLE_USER_HOME="$guh2" "$shell" "$p/gradlew" one >"$tmp/par1" 2>&1) &
+pid1=$!
+(GRADLE_USER_HOME="$guh2" "$shell" "$p/gradlew" two >"$tmp/par2" 2>&1) &
+pid2=$!
+wait "$pid1" || fail "parallel run 1: $(cat "$tmp/par1")"
+wait "$pid2" || fail "parallel run 2: $(cat "$tmp/par2")"
+grep -q "FAKE GRADLE in .*: one" "$tmp/par1" || fail "parallel run 1 printed: $(cat "$tmp/par1")"
+grep -q "FAKE GRADLE in .*: two" "$tmp/par2" || fail "parallel run 2 printed: $(cat "$tmp/par2")"
+par_dir="$(FPBP_GRADLEW_PRINT_DIST_DIR=1 GRADLE_USER_HOME="$guh2" "$shell" "$p/gradlew")"
+[ "$(find "$par_dir" -mindepth 1 -maxdepth 1 -type d | wc -l)" -eq 1 ] || fail "parallel runs left $(ls "$par_dir")"
+[ -z "$(find "$guh2" -name '*gradlew-lock*')" ] || fail "parallel runs left a lock"
+
 bad="$tmp/bad"
 make_project "$bad"
 set_prop "$bad" distributionUrl "file\\://$zip"
@@ -176,4 +190,4 @@ else
   echo "note: javac/jar/java not found: the wrapper-jar branch of gradlew is not checked"
 fi
 
-echo "gradlew-test: ok (wrapper properties identical; gradlew without the jar: folder naming, file:// download, SHA-256 check, cached rerun, exit code, jar unpack; with a jar: runs it)"
+echo "gradlew-test: ok (wrapper properties identical; gradlew without the jar: folder naming, file:// download, SHA-256 check, cached rerun, exit code, parallel first runs, jar unpack; with a jar: runs it)"

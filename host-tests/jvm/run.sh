@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # JVM host verification of the JNI surface (called by scripts/test.sh).
 #
-# 1. builds libfpbp for the host, the two reference examples
+# 1. builds libfpbp for the host with the `self-test` feature (the test hooks
+#    of io.fpbp.NativeSelfTest), the two reference examples
 #    (rust/jni/examples/{replay_reference,log_echo}.rs) and the `fpbp` CLI
 #    (SurveyRecordingTest runs `fpbp calibrate --wifi --radio-map` on the
 #    survey files the library recorded; they stay in
@@ -42,8 +43,10 @@ if ! command -v mvn >/dev/null || ! command -v java >/dev/null; then
   exit 0
 fi
 
-echo "== cargo build --release -p fpbp-jni (libfpbp + reference examples)"
-cargo build --release -p fpbp-jni --lib --examples
+# The self-test feature adds the test hooks of io.fpbp.NativeSelfTest (the
+# shipped Android library is built without them).
+echo "== cargo build --release -p fpbp-jni --features self-test (libfpbp + reference examples)"
+cargo build --release -p fpbp-jni --features self-test --lib --examples
 echo "== cargo build --release -p fpbp-cli (the fpbp binary: calibrate on the recorded survey)"
 cargo build --release -p fpbp-cli --bin fpbp
 lib="$target/release"

@@ -11,7 +11,7 @@ import android.hardware.SensorManager
 import android.location.LocationManager
 import io.fpbp.FpbpEngine
 import io.fpbp.FpbpNativeException
-import io.fpbp.NativeBridge
+import io.fpbp.NativeSelfTest
 import io.fpbp.PositioningState
 import io.fpbp.Problem
 import io.fpbp.android.FpbpPositioning
@@ -42,17 +42,17 @@ import java.util.concurrent.TimeUnit
 @Implements(value = FpbpEngine::class, isInAndroidSdk = false)
 class PanickingSensorShadow {
     @Implementation
-    fun onSensor(sensorType: Int, tNs: Long, values: DoubleArray) = NativeBridge.selfTestPanic()
+    fun onSensor(sensorType: Int, tNs: Long, values: DoubleArray) = NativeSelfTest.selfTestPanic()
 }
 
 /** An engine whose task runs fail with libfpbp's FpbpNativeException. */
 @Implements(value = FpbpEngine::class, isInAndroidSdk = false)
 class PanickingTaskShadow {
     @Implementation
-    fun runGml(tNs: Long) = NativeBridge.selfTestPanic()
+    fun runGml(tNs: Long) = NativeSelfTest.selfTestPanic()
 
     @Implementation
-    fun runFusion(tNs: Long) = NativeBridge.selfTestPanic()
+    fun runFusion(tNs: Long) = NativeSelfTest.selfTestPanic()
 }
 
 /**

@@ -36,7 +36,9 @@ pub mod site_loader;
 use std::path::Path;
 use std::sync::LazyLock;
 
-use jni::objects::{JClass, JDoubleArray, JIntArray, JLongArray, JObjectArray, JString};
+use jni::objects::{
+    JByteBuffer, JClass, JDoubleArray, JIntArray, JLongArray, JObjectArray, JString,
+};
 use jni::sys::{jboolean, jdouble, jint, jlong};
 use jni::{Env, EnvUnowned};
 
@@ -179,6 +181,78 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
         let handle = SESSIONS.insert(Live::new(session))?;
         log::info!("started engine `{engine}` as handle {handle}");
         Ok(handle)
+    })
+}
+
+/// The bytes of a direct `java.nio.ByteBuffer` (capacity, from address 0;
+/// Kotlin passes `slice()` so position and limit are the slice's).
+///
+/// The slice lives for the call: the buffer is a local reference the
+/// caller keeps alive, and a direct buffer's memory does not move. (A
+/// memory-mapped file truncated by another process during the call would
+/// fault: the library maps read-only files it owns.)
+fn direct_bytes<'b>(env: &Env<'_>, buf: &'b JByteBuffer<'_>) -> Result<&'b [u8], BridgeError> {
+    if buf.is_null() {
+        return Err(BridgeError::IllegalArgument("bundle is null".into()));
+    }
+    let not_direct = |_| {
+        BridgeError::IllegalArgument(
+            "bundle must be a direct ByteBuffer (FileChannel.map or ByteBuffer.allocateDirect)"
+                .into(),
+        )
+    };
+    let len = env.get_direct_buffer_capacity(buf).map_err(not_direct)?;
+    if len == 0 {
+        return Ok(&[]);
+    }
+    let ptr = env.get_direct_buffer_address(buf).map_err(not_direct)?;
+    // SAFETY: `ptr` is the non-null start of the direct buffer's `len`
+    // bytes, valid while `buf` (a live local reference) is; only read.
+    #[allow(unsafe_code)]
+    Ok(unsafe { std::slice::from_raw_parts(ptr.cast_const(), len) })
+}
+
+/// `startBundle(bundle: ByteBuffer, configJson, engine, init) -> handle`:
+/// starts `engine` from a site bundle (`fpbp bundle`, docs/formats.md
+/// "Site bundle") in a direct buffer: site, plans and radio map are read
+/// from it in place, no String of the map crosses JNI.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_startBundle<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    bundle: JByteBuffer<'l>,
+    config_json: JString<'l>,
+    engine: JString<'l>,
+    init: JDoubleArray<'l>,
+) -> jlong {
+    entry(&mut env, "startBundle", |env| {
+        let config_json = optional_string(env, &config_json)?.unwrap_or_default();
+        let engine = string_arg(env, &engine, "engine")?;
+        let init = double_array(env, &init)?
+            .map(|v| session::init_from_array(&v))
+            .transpose()?;
+        let bytes = direct_bytes(env, &bundle)?;
+        let session = Session::start_bundle(bytes, &config_json, &engine, init)?;
+        let handle = SESSIONS.insert(Live::new(session))?;
+        log::info!(
+            "started engine `{engine}` from a {}-byte bundle as handle {handle}",
+            bytes.len()
+        );
+        Ok(handle)
+    })
+}
+
+/// `bundleSiteJson(bundle: ByteBuffer) -> String`: the text of a bundle's
+/// site.json, after checking the whole bundle (manifest, sizes, hashes).
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_bundleSiteJson<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    bundle: JByteBuffer<'l>,
+) -> JString<'l> {
+    entry(&mut env, "bundleSiteJson", |env| {
+        let json = Session::bundle_site_json(direct_bytes(env, &bundle)?)?;
+        Ok(JString::from_str(env, json)?)
     })
 }
 

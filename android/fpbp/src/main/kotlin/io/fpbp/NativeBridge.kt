@@ -67,6 +67,24 @@ object NativeBridge {
         fingerprintsJson: String?,
     ): Long
 
+    /**
+     * Starts [engine] from a site bundle (`fpbp bundle`, docs/formats.md
+     * "Site bundle") in the direct buffer [bundle] (its whole capacity; pass
+     * a `slice()`): the site, its plans and the radio map (for `tcpf` and
+     * `scan-knn`) are read from it in place. [configJson] and [init] as in
+     * [start]. Throws [IllegalArgumentException] for a heap buffer or a bad
+     * bundle, naming the field or entry at fault.
+     */
+    @JvmStatic external fun startBundle(
+        bundle: java.nio.ByteBuffer,
+        configJson: String,
+        engine: String,
+        init: DoubleArray?,
+    ): Long
+
+    /** The text of site.json in the direct buffer [bundle], after checking the whole bundle. */
+    @JvmStatic external fun bundleSiteJson(bundle: java.nio.ByteBuffer): String
+
     /** Forgets [handle]; throws [IllegalStateException] if it is not live. */
     @JvmStatic external fun stop(handle: Long)
 

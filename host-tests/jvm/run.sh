@@ -50,10 +50,11 @@ fi
 
 # The self-test feature adds the test hooks of io.fpbp.NativeSelfTest (the
 # shipped Android library is built without them).
-echo "== cargo build --release -p fpbp-jni --features self-test (libfpbp + reference examples)"
-cargo build --release -p fpbp-jni --features self-test --lib --examples
-echo "== cargo build --release -p fpbp-cli (the fpbp binary: calibrate on the recorded survey)"
-cargo build --release -p fpbp-cli --bin fpbp
+# One cargo call for all three (libfpbp, its examples, the fpbp binary): one
+# feature resolution, so the shared crates are compiled once, not per package.
+echo "== cargo build --release: libfpbp (feature self-test), reference examples, fpbp binary"
+cargo build --release -p fpbp-jni -p fpbp-cli --features fpbp-jni/self-test --lib --bin fpbp \
+  --example replay_reference --example log_echo --example events_dump
 lib="$target/release"
 [ -f "$lib/libfpbp.so" ] || [ -f "$lib/libfpbp.dylib" ] || { echo "libfpbp not found in $lib"; exit 1; }
 
@@ -111,7 +112,6 @@ facade_props=("-Dfpbp.facade.events=none")
 if [ $bench -eq 0 ]; then
   if [ -f "$f1/path_data_files/$facade_log_name" ]; then
     echo "== facade replay inputs: ILC F1 site, radio map, bundle, eval track (into $facade)"
-    cargo build --release -p fpbp-cli
     fpbp="$target/release/fpbp"
     rm -rf "$facade" && mkdir -p "$facade"
     step() { # step NAME CMD...: runs CMD with its output in $facade/NAME.log, prints the time

@@ -103,6 +103,7 @@ class SurveyRecordingTest {
         shadowOf(app).grantPermissions(
             Manifest.permission.BLUETOOTH_SCAN,
             Manifest.permission.ACCESS_FINE_LOCATION,
+            Manifest.permission.ACCESS_COARSE_LOCATION,
             Manifest.permission.NEARBY_WIFI_DEVICES,
         )
         shadowOf(bluetooth.adapter).setEnabled(true)

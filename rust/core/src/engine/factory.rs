@@ -121,7 +121,20 @@ pub fn build_engine(
 }
 
 /// [`build_engine`] with extra data (engines that do not use it ignore it).
+/// The engine comes wrapped in [`super::CountedInputs`].
 pub fn build_engine_with(
+    name: &str,
+    site: Arc<Site>,
+    config: &EngineConfig,
+    init: Option<InitialPosition>,
+    data: &EngineData,
+) -> Result<Box<dyn Engine>> {
+    let engine = build_bare(name, site, config, init, data)?;
+    Ok(Box::new(super::CountedInputs::new(engine)))
+}
+
+/// The engine `name` itself, without the input counting.
+fn build_bare(
     name: &str,
     site: Arc<Site>,
     config: &EngineConfig,
@@ -215,6 +228,39 @@ mod tests {
                 })
                 .collect(),
         })
+    }
+
+    /// The one start-position rule (builds and `set_position` alike): each
+    /// way a position can be wrong is refused with the field named. Guards
+    /// against a rule dropped or an engine checking its own way.
+    #[test]
+    fn a_start_position_is_checked_field_by_field() {
+        let site = site();
+        let at = |x_m: f64, floor: i32, heading_rad: Option<f64>| InitialPosition {
+            x_m,
+            y_m: 1.0,
+            floor,
+            heading_rad,
+        };
+        assert!(check_initial_position(&site, &at(1.0, 0, Some(0.5))).is_ok());
+        assert!(check_initial_position(&site, &at(1.0, 0, None)).is_ok());
+        let wrong = |a: InitialPosition| check_initial_position(&site, &a).unwrap_err().to_string();
+        assert!(wrong(at(f64::NAN, 0, None)).contains("must be finite"));
+        assert!(wrong(at(1.0, 0, Some(f64::INFINITY))).contains("heading_rad"));
+        let e = wrong(at(1.0, 3, None));
+        assert!(e.contains("floor 3") && e.contains("floors: 0"), "{e}");
+        assert!(wrong(at(-1.0, 0, None)).contains("outside floor 0's plan"));
+        // an engine's set_position refuses what a build refuses
+        let cfg = EngineConfig::default();
+        for name in ["pdr", "fpbp", "gml"] {
+            let mut e = build_engine(name, site.clone(), &cfg, Some(at(1.0, 0, None))).unwrap();
+            let msg = e
+                .set_position(0, at(-1.0, 0, None))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains("outside floor 0's plan"), "{name}: {msg}");
+            assert!(e.set_position(0, at(2.0, 0, None)).is_ok(), "{name}");
+        }
     }
 
     /// Engines that do not use WiFi count its scans and results and

@@ -30,7 +30,7 @@ struct WifiInput {
 /// A BLE-only (or WiFi-only) engine.
 pub struct BleOnlyEngine {
     kind: PositionerKind,
-    /// `Some` for the WiFi engines: BLE is then counted and ignored.
+    /// `Some` for the WiFi engines: BLE is then ignored.
     wifi: Option<WifiInput>,
     task: BleTask,
     period_ns: i64,
@@ -119,20 +119,17 @@ impl Engine for BleOnlyEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         self.task.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if self.wifi.is_none() {
             self.task.on_observation(obs);
         }
     }
 
     fn on_wifi(&mut self, scan: &WifiScan) {
-        // The BLE engines do not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
+        // The BLE engines do not use WiFi: ignored.
         let Some(w) = self.wifi.as_mut() else { return };
         for r in w.fresh.of(scan, w.max_age_ns) {
             if r.rssi_dbm < w.min_rssi_dbm {
@@ -151,7 +148,7 @@ impl Engine for BleOnlyEngine {
     /// The pose becomes `at` now; the mean filter forgets the fixes from
     /// before and the next run searches around `at` (its previous position).
     fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
-        crate::engines::given_position::check(self.kind.name(), &self.site, &at)?;
+        crate::engine::check_initial_position(&self.site, &at)?;
         self.task.reset_position();
         let heading_rad = at
             .heading_rad

@@ -9,7 +9,23 @@
 //! wrapped.
 
 use super::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::ble::frontend::FrontEndCounts;
 use crate::events::{BleObservation, GnssFix, SensorEvent, WifiScan};
+
+impl EngineStats {
+    /// These counters (an engine's own) with what its input stages counted:
+    /// the unknown beacons and rejected observations of its BLE front end
+    /// (`front`, default when it has none) and `rejected` inputs the other
+    /// stages refused (the PDR's skipped samples, the floor tracker's bad
+    /// pressures, ...), each added to the engine's own.
+    pub fn with_stages(&self, front: FrontEndCounts, rejected: u64) -> EngineStats {
+        EngineStats {
+            unknown_beacons: self.unknown_beacons + front.unknown,
+            rejected_inputs: self.rejected_inputs + front.rejected + rejected,
+            ..self.clone()
+        }
+    }
+}
 
 /// An engine with its inputs counted (see the module).
 pub struct CountedInputs {

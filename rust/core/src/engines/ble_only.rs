@@ -222,12 +222,7 @@ impl Engine for BleOnlyEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.task.front().counts();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected,
-            ..self.stats.clone()
-        }
+        self.stats.with_stages(self.task.front().counts(), 0)
     }
 }
 

@@ -132,11 +132,8 @@ impl Engine for PdrEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let p = self.pdr.stats();
-        EngineStats {
-            rejected_inputs: p.rejected(),
-            ..self.stats.clone()
-        }
+        let pdr = self.pdr.stats().rejected();
+        self.stats.with_stages(Default::default(), pdr)
     }
 }
 

@@ -554,13 +554,8 @@ impl Engine for ProxPfEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.front.counts();
-        let p = self.pdr.stats();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected + p.rejected(),
-            ..self.stats.clone()
-        }
+        let pdr = self.pdr.stats().rejected();
+        self.stats.with_stages(self.front.counts(), pdr)
     }
 }
 

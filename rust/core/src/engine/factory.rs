@@ -129,84 +129,71 @@ pub fn build_engine_with(
     init: Option<InitialPosition>,
     data: &EngineData,
 ) -> Result<Box<dyn Engine>> {
-    let engine = build_bare(name, site, config, init, data)?;
-    Ok(Box::new(super::CountedInputs::new(engine)))
-}
-
-/// The engine `name` itself, without the input counting.
-fn build_bare(
-    name: &str,
-    site: Arc<Site>,
-    config: &EngineConfig,
-    init: Option<InitialPosition>,
-    data: &EngineData,
-) -> Result<Box<dyn Engine>> {
     config.validate()?;
     if let Some(at) = &init {
         check_initial_position(&site, at)?;
     }
-    if let Some(e) =
+    let engine: Box<dyn Engine> = if let Some(e) =
         crate::engines::ble_only::BleOnlyEngine::new_wifi(name, site.clone(), config, init)
     {
-        return Ok(Box::new(e));
-    }
-    if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
-        return Ok(Box::new(crate::engines::ble_only::BleOnlyEngine::new(
+        Box::new(e)
+    } else if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
+        Box::new(crate::engines::ble_only::BleOnlyEngine::new(
             kind, site, config, init,
-        )));
-    }
-    match name {
-        "fpbp" | "bp" => Ok(Box::new(crate::engines::fpbp::FpbpEngine::new(
-            site,
-            config,
-            name == "fpbp",
-            init,
-        )?)),
-        "tcpf" => Ok(Box::new(match &data.radio_map {
-            Some(m) => crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?,
-            None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
-        })),
-        "scan-knn" => {
-            let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
-                Some(m) => m.clone(),
-                None => {
-                    return Err(Error::Input(
-                        "engine `scan-knn` needs a radio map with reference scans \
-                         (`fpbp calibrate --radio-map`, then `--radio-map`)"
-                            .into(),
-                    ));
-                }
-            };
-            Ok(Box::new(crate::engines::scan_knn::ScanKnnEngine::new(
-                config, model,
-            )?))
-        }
-        "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
-            site, config, init,
-        )?)),
-        "prox-pf" => Ok(Box::new(crate::engines::prox_pf::ProxPfEngine::new(
-            site, config, init,
-        )?)),
-        "ppsa" => Ok(Box::new(crate::engines::ppsa::PpsaEngine::new(
-            site, config, init,
-        )?)),
-        "robust-ekf" => Ok(Box::new(match &data.fingerprints {
-            Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+        ))
+    } else {
+        match name {
+            "fpbp" | "bp" => Box::new(crate::engines::fpbp::FpbpEngine::new(
                 site,
                 config,
+                name == "fpbp",
                 init,
-                fp.clone(),
-            )?,
-            None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
-        })),
-        "tc-ekf" => Ok(Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
-            site, config, init,
-        )?)),
-        _ => Err(Error::UnknownEngine(
-            name.to_string(),
-            ENGINE_NAMES.join(", "),
-        )),
-    }
+            )?),
+            "tcpf" => Box::new(match &data.radio_map {
+                Some(m) => {
+                    crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?
+                }
+                None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
+            }),
+            "scan-knn" => {
+                let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
+                    Some(m) => m.clone(),
+                    None => {
+                        return Err(Error::Input(
+                            "engine `scan-knn` needs a radio map with reference scans \
+                             (`fpbp calibrate --radio-map`, then `--radio-map`)"
+                                .into(),
+                        ));
+                    }
+                };
+                Box::new(crate::engines::scan_knn::ScanKnnEngine::new(config, model)?)
+            }
+            "pdr" => Box::new(crate::engines::pdr::PdrEngine::new(site, config, init)?),
+            "prox-pf" => Box::new(crate::engines::prox_pf::ProxPfEngine::new(
+                site, config, init,
+            )?),
+            "ppsa" => Box::new(crate::engines::ppsa::PpsaEngine::new(site, config, init)?),
+            "robust-ekf" => Box::new(match &data.fingerprints {
+                Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+                    site,
+                    config,
+                    init,
+                    fp.clone(),
+                )?,
+                None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
+            }),
+            "tc-ekf" => Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
+                site, config, init,
+            )?),
+            _ => {
+                return Err(Error::UnknownEngine(
+                    name.to_string(),
+                    ENGINE_NAMES.join(", "),
+                ));
+            }
+        }
+    };
+    Ok(Box::new(super::CountedInputs::new(engine)))
 }
 
 #[cfg(test)]

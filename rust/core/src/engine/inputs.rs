@@ -111,40 +111,29 @@ impl Engine for CountedInputs {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::engine::EngineConfig;
+    use crate::engines::pdr::PdrEngine;
     use crate::events::{SensorData, WifiResult};
 
-    /// Counts nothing itself and ignores every input (the trait's defaults).
-    struct Deaf;
-
-    impl Engine for Deaf {
-        fn name(&self) -> &'static str {
-            "deaf"
-        }
-        fn run_task(&mut self, _task: Task, _t_ns: i64) {}
-        fn task_period_ns(&self, _task: Task) -> Option<i64> {
-            None
-        }
-        fn pose(&self) -> Option<Pose> {
-            None
-        }
-        fn stats(&self) -> EngineStats {
-            EngineStats {
-                steps: 7,
-                ..EngineStats::default()
-            }
-        }
-    }
-
-    /// Guards that the wrapper counts every input it passes on and keeps
-    /// the engine's own counters: without it an engine that ignores an
-    /// input would report none of it.
+    /// Guards that the wrapper counts every input it passes on, those the
+    /// engine ignores too (`pdr` uses neither BLE nor WiFi), and keeps the
+    /// engine's own counters: without it such inputs would go uncounted.
     #[test]
     fn counts_the_inputs_and_keeps_the_engines_own_counters() {
-        let mut e = CountedInputs::new(Box::new(Deaf));
+        let at = InitialPosition {
+            x_m: 7.0,
+            y_m: 4.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        let site = crate::engines::prox_pf::testkit::site();
+        let pdr = PdrEngine::new(site, &EngineConfig::default(), Some(at)).unwrap();
+        let mut e = CountedInputs::new(Box::new(pdr));
         for t in 0..3 {
             e.on_sensor(&SensorEvent {
                 t_ns: t,
-                data: SensorData::Pressure(1000.0),
+                // a gyroscope sample with a NaN: the PDR's own rejection
+                data: SensorData::Gyroscope([f64::NAN, 0.0, 0.0]),
             });
         }
         e.on_ble(&BleObservation {
@@ -170,6 +159,6 @@ mod tests {
         let s = e.stats();
         assert_eq!((s.sensor_events, s.ble_observations), (3, 1));
         assert_eq!((s.wifi_scans, s.wifi_results), (2, 2));
-        assert_eq!((s.steps, e.name()), (7, "deaf"));
+        assert_eq!((s.rejected_inputs, e.name()), (3, "pdr"));
     }
 }

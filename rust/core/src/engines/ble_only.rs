@@ -50,10 +50,23 @@ impl BleOnlyEngine {
         config: &EngineConfig,
         init: Option<InitialPosition>,
     ) -> Self {
+        let task = BleTask::new(kind, &config.ble, &site);
+        Self::assemble(kind, None, task, config, init, site)
+    }
+
+    /// The engine around `task`, before its first run.
+    fn assemble(
+        kind: PositionerKind,
+        wifi: Option<WifiInput>,
+        task: BleTask,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+        site: Arc<Site>,
+    ) -> Self {
         BleOnlyEngine {
             kind,
-            wifi: None,
-            task: BleTask::new(kind, &config.ble, &site),
+            wifi,
+            task,
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
             init,
@@ -94,22 +107,14 @@ impl BleOnlyEngine {
             })
             .collect();
         let front = BleFrontEnd::with_registry(&ble, BeaconRegistry::new(&aps));
-        Some(BleOnlyEngine {
-            kind,
-            wifi: Some(WifiInput {
-                name,
-                fresh: FreshResults::default(),
-                max_age_ns: config.wifi.max_age_ns(),
-                min_rssi_dbm: config.wifi.min_rssi_dbm,
-            }),
-            task: BleTask::with_parts(&ble, front, kind.build(&ble), Default::default()),
-            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
-            pose: None,
-            init,
-            given: false,
-            site,
-            stats: EngineStats::default(),
-        })
+        let wifi = WifiInput {
+            name,
+            fresh: FreshResults::default(),
+            max_age_ns: config.wifi.max_age_ns(),
+            min_rssi_dbm: config.wifi.min_rssi_dbm,
+        };
+        let task = BleTask::with_parts(&ble, front, kind.build(&ble), Default::default());
+        Some(Self::assemble(kind, Some(wifi), task, config, init, site))
     }
 }
 

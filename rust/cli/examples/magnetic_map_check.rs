@@ -47,9 +47,8 @@ fn placed_samples(path: &Path) -> Result<Samples> {
     Ok(out)
 }
 
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+fn median(v: &[f64]) -> f64 {
+    fpbp_core::stats::median(v).unwrap_or(f64::NAN)
 }
 
 fn mean(v: &[f64]) -> f64 {
@@ -117,7 +116,7 @@ fn main() -> Result<()> {
     println!(
         "cells crossed by >= 2 walks: {}; spread of the walks' mean |B| within a cell (median): {:.2} uT; spread of the cell means over the floor: {:.2} uT",
         within.len(),
-        median(&mut within),
+        median(&within),
         sd(&means)
     );
 
@@ -151,11 +150,11 @@ fn main() -> Result<()> {
             continue;
         }
         let rms = (res.iter().map(|r| r * r).sum::<f64>() / res.len() as f64).sqrt();
-        let mut abs: Vec<f64> = res.iter().map(|r| r.abs()).collect();
+        let abs: Vec<f64> = res.iter().map(|r| r.abs()).collect();
         println!(
             "  {shift:>4} m from the true position: {} residuals, median |r| {:.2} uT, RMS {:.2} uT",
             res.len(),
-            median(&mut abs),
+            median(&abs),
             rms
         );
     }

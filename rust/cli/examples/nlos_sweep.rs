@@ -173,10 +173,7 @@ fn main() -> Result<()> {
             let n = v.len().max(1) as f64;
             let rmse = (v.iter().map(|e| e * e).sum::<f64>() / n).sqrt();
             let mean = v.iter().sum::<f64>() / n;
-            let pct = |p: f64| {
-                v.get(((p * (v.len() as f64 - 1.0)).round()) as usize)
-                    .copied()
-            };
+            let pct = |p: f64| fpbp_core::stats::quantile_sorted(&v, p);
             let p50 = pct(0.5).unwrap_or(f64::NAN);
             let p90 = pct(0.9).unwrap_or(f64::NAN);
             let nf = a.no_fix as f64 / a.points.max(1) as f64;

@@ -38,12 +38,7 @@ struct Fit {
 }
 
 fn quantile(v: &[f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[((s.len() - 1) as f64 * q).round() as usize]
+    fpbp_core::stats::quantile(v, q).unwrap_or(f64::NAN)
 }
 
 fn fit(points: &[Point]) -> Option<Fit> {

@@ -22,12 +22,8 @@ use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{Pdr, PdrConfig};
 use fpbp_sim::{SimProfile, SimRequest, simulate};
 
-fn pct(v: &mut [f64], p: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * p).round() as usize]
+fn pct(v: &[f64], p: f64) -> f64 {
+    fpbp_core::stats::quantile(v, p).unwrap_or(f64::NAN)
 }
 
 fn main() -> Result<()> {
@@ -142,9 +138,9 @@ fn main() -> Result<()> {
                 steps.len(),
                 matched,
                 walked / true_dist,
-                pct(&mut len_ratio, 0.5),
-                pct(&mut herr.clone(), 0.5),
-                pct(&mut herr, 0.8),
+                pct(&len_ratio, 0.5),
+                pct(&herr, 0.5),
+                pct(&herr, 0.8),
                 sy.atan2(sx).to_degrees(),
                 (px - end.x).hypot(py - end.y),
                 pdr.stats().upright_steps,

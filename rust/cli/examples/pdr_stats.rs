@@ -339,14 +339,8 @@ fn mean(v: &[f64]) -> f64 {
 
 /// Linear-interpolated percentile, `q` in [0, 1].
 fn percentile(v: &[f64], q: f64) -> f64 {
-    let mut s: Vec<f64> = v.iter().cloned().filter(|x| x.is_finite()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let pos = q * (s.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    s[lo] + (s[hi] - s[lo]) * (pos - lo as f64)
+    let s: Vec<f64> = v.iter().cloned().filter(|x| x.is_finite()).collect();
+    fpbp_core::stats::quantile(&s, q).unwrap_or(f64::NAN)
 }
 
 fn median(v: &[f64]) -> f64 {

@@ -60,11 +60,7 @@ fn first(out: &ReplayOutput, t0: i64) -> f64 {
 }
 
 fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len() as f64 * q) as usize).min(v.len().saturating_sub(1)))
-        .copied()
-        .unwrap_or(f64::NAN)
+    fpbp_core::stats::quantile(v, q).unwrap_or(f64::NAN)
 }
 
 fn main() -> Result<()> {

@@ -128,8 +128,7 @@ fn read_events(
 
 fn median(mut v: Vec<f64>) -> Option<f64> {
     v.retain(|x| x.is_finite());
-    v.sort_by(f64::total_cmp);
-    fpbp_sim::stats::quantile(&v, 0.5)
+    fpbp_core::stats::median(&v)
 }
 
 pub fn run(args: Args) -> Result<()> {

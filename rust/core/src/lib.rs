@@ -25,6 +25,7 @@ pub mod pdr;
 pub mod radio;
 pub mod simd;
 pub mod site;
+pub mod stats;
 pub mod wifi;
 
 pub use error::{Error, Result};

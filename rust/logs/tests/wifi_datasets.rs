@@ -36,12 +36,8 @@ fn scans(path: &Path) -> (Vec<WifiScan>, Option<i64>, u64) {
     (v, r.ilc_origin_ms(), rep.wifi_rows)
 }
 
-fn pct(v: &mut [f64], p: f64) -> f64 {
-    v.sort_by(f64::total_cmp);
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v[((v.len() - 1) as f64 * p).round() as usize]
+fn pct(v: &[f64], p: f64) -> f64 {
+    fpbp_core::stats::quantile(v, p).unwrap_or(f64::NAN)
 }
 
 #[derive(Default)]
@@ -77,12 +73,12 @@ impl Stats {
             "{name}: {} scans, {:.0} results/scan, interval p10/p50/p90 {:.2}/{:.2}/{:.2} s, age p50/p90/max {:.2}/{:.2}/{:.1} s, {:.1} % older than 5 s, 5 GHz {:.1} % of results, {} BSSIDs",
             self.scans,
             self.results as f64 / self.scans.max(1) as f64,
-            pct(&mut self.intervals_s, 0.1),
-            pct(&mut self.intervals_s, 0.5),
-            pct(&mut self.intervals_s, 0.9),
-            pct(&mut self.ages_s, 0.5),
-            pct(&mut self.ages_s, 0.9),
-            pct(&mut self.ages_s, 1.0),
+            pct(&self.intervals_s, 0.1),
+            pct(&self.intervals_s, 0.5),
+            pct(&self.intervals_s, 0.9),
+            pct(&self.ages_s, 0.5),
+            pct(&self.ages_s, 0.9),
+            pct(&self.ages_s, 1.0),
             100.0 * old,
             100.0 * self.band5 as f64 / n,
             self.bssids.len()

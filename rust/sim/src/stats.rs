@@ -154,16 +154,7 @@ pub fn detect_steps(vert: &[(f64, f64)]) -> Vec<DetectedStep> {
     steps
 }
 
-/// Quantile q in [0, 1] of sorted data (linear interpolation).
-pub fn quantile(sorted: &[f64], q: f64) -> Option<f64> {
-    if sorted.is_empty() {
-        return None;
-    }
-    let x = q.clamp(0.0, 1.0) * (sorted.len() - 1) as f64;
-    let (i, f) = (x.floor() as usize, x - x.floor());
-    let j = (i + 1).min(sorted.len() - 1);
-    Some(sorted[i] + f * (sorted[j] - sorted[i]))
-}
+pub use fpbp_core::stats::quantile_sorted as quantile;
 
 fn sorted(mut v: Vec<f64>) -> Vec<f64> {
     v.sort_by(f64::total_cmp);

@@ -214,18 +214,9 @@ fn fit_at(
     }
 }
 
-/// The median of `v` (the mean of the middle two for an even count; 0
-/// for none).
-pub(crate) fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.is_empty() {
-        0.0
-    } else if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
+/// The median of `v` ([`crate::stats::median`]; 0 for none).
+pub(crate) fn median(v: Vec<f64>) -> f64 {
+    crate::stats::median(&v).unwrap_or(0.0)
 }
 
 fn fit_transmitter(bins: &[Bin], min_d: f64, cfg: &CalibrationConfig) -> Fit {

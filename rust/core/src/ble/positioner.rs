@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::baselines::{Frbw, LlsTrilateration, MlContinuous, WeightedCentroid};
+use super::baselines::{LlsTrilateration, MlContinuous, WeightedCentroid};
 use super::config::BleConfig;
 use super::frontend::FilteredBeacon;
 use super::gml::Gml;
@@ -64,7 +64,7 @@ impl PositionerKind {
         match self {
             PositionerKind::Gml => Box::new(Gml::new(cfg)),
             PositionerKind::Trilat => Box::new(LlsTrilateration::new(cfg)),
-            PositionerKind::Frbw => Box::new(Frbw::new(cfg)),
+            PositionerKind::Frbw => Box::new(WeightedCentroid::frbw(cfg)),
             PositionerKind::Ml => Box::new(MlContinuous::new(cfg)),
             PositionerKind::WeightedCentroid => Box::new(WeightedCentroid::new(cfg)),
         }

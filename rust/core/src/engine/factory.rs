@@ -121,6 +121,7 @@ pub fn build_engine(
 }
 
 /// [`build_engine`] with extra data (engines that do not use it ignore it).
+/// The engine comes wrapped in [`super::CountedInputs`].
 pub fn build_engine_with(
     name: &str,
     site: Arc<Site>,
@@ -132,68 +133,67 @@ pub fn build_engine_with(
     if let Some(at) = &init {
         check_initial_position(&site, at)?;
     }
-    if let Some(e) =
+    let engine: Box<dyn Engine> = if let Some(e) =
         crate::engines::ble_only::BleOnlyEngine::new_wifi(name, site.clone(), config, init)
     {
-        return Ok(Box::new(e));
-    }
-    if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
-        return Ok(Box::new(crate::engines::ble_only::BleOnlyEngine::new(
+        Box::new(e)
+    } else if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
+        Box::new(crate::engines::ble_only::BleOnlyEngine::new(
             kind, site, config, init,
-        )));
-    }
-    match name {
-        "fpbp" | "bp" => Ok(Box::new(crate::engines::fpbp::FpbpEngine::new(
-            site,
-            config,
-            name == "fpbp",
-            init,
-        )?)),
-        "tcpf" => Ok(Box::new(match &data.radio_map {
-            Some(m) => crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?,
-            None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
-        })),
-        "scan-knn" => {
-            let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
-                Some(m) => m.clone(),
-                None => {
-                    return Err(Error::Input(
-                        "engine `scan-knn` needs a radio map with reference scans \
-                         (`fpbp calibrate --radio-map`, then `--radio-map`)"
-                            .into(),
-                    ));
-                }
-            };
-            Ok(Box::new(crate::engines::scan_knn::ScanKnnEngine::new(
-                config, model,
-            )?))
-        }
-        "pdr" => Ok(Box::new(crate::engines::pdr::PdrEngine::new(
-            site, config, init,
-        )?)),
-        "prox-pf" => Ok(Box::new(crate::engines::prox_pf::ProxPfEngine::new(
-            site, config, init,
-        )?)),
-        "ppsa" => Ok(Box::new(crate::engines::ppsa::PpsaEngine::new(
-            site, config, init,
-        )?)),
-        "robust-ekf" => Ok(Box::new(match &data.fingerprints {
-            Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+        ))
+    } else {
+        match name {
+            "fpbp" | "bp" => Box::new(crate::engines::fpbp::FpbpEngine::new(
                 site,
                 config,
+                name == "fpbp",
                 init,
-                fp.clone(),
-            )?,
-            None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
-        })),
-        "tc-ekf" => Ok(Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
-            site, config, init,
-        )?)),
-        _ => Err(Error::UnknownEngine(
-            name.to_string(),
-            ENGINE_NAMES.join(", "),
-        )),
-    }
+            )?),
+            "tcpf" => Box::new(match &data.radio_map {
+                Some(m) => {
+                    crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?
+                }
+                None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
+            }),
+            "scan-knn" => {
+                let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
+                    Some(m) => m.clone(),
+                    None => {
+                        return Err(Error::Input(
+                            "engine `scan-knn` needs a radio map with reference scans \
+                             (`fpbp calibrate --radio-map`, then `--radio-map`)"
+                                .into(),
+                        ));
+                    }
+                };
+                Box::new(crate::engines::scan_knn::ScanKnnEngine::new(config, model)?)
+            }
+            "pdr" => Box::new(crate::engines::pdr::PdrEngine::new(site, config, init)?),
+            "prox-pf" => Box::new(crate::engines::prox_pf::ProxPfEngine::new(
+                site, config, init,
+            )?),
+            "ppsa" => Box::new(crate::engines::ppsa::PpsaEngine::new(site, config, init)?),
+            "robust-ekf" => Box::new(match &data.fingerprints {
+                Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+                    site,
+                    config,
+                    init,
+                    fp.clone(),
+                )?,
+                None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
+            }),
+            "tc-ekf" => Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
+                site, config, init,
+            )?),
+            _ => {
+                return Err(Error::UnknownEngine(
+                    name.to_string(),
+                    ENGINE_NAMES.join(", "),
+                ));
+            }
+        }
+    };
+    Ok(Box::new(super::CountedInputs::new(engine)))
 }
 
 #[cfg(test)]
@@ -215,6 +215,39 @@ mod tests {
                 })
                 .collect(),
         })
+    }
+
+    /// The one start-position rule (builds and `set_position` alike): each
+    /// way a position can be wrong is refused with the field named. Guards
+    /// against a rule dropped or an engine checking its own way.
+    #[test]
+    fn a_start_position_is_checked_field_by_field() {
+        let site = site();
+        let at = |x_m: f64, floor: i32, heading_rad: Option<f64>| InitialPosition {
+            x_m,
+            y_m: 1.0,
+            floor,
+            heading_rad,
+        };
+        assert!(check_initial_position(&site, &at(1.0, 0, Some(0.5))).is_ok());
+        assert!(check_initial_position(&site, &at(1.0, 0, None)).is_ok());
+        let wrong = |a: InitialPosition| check_initial_position(&site, &a).unwrap_err().to_string();
+        assert!(wrong(at(f64::NAN, 0, None)).contains("must be finite"));
+        assert!(wrong(at(1.0, 0, Some(f64::INFINITY))).contains("heading_rad"));
+        let e = wrong(at(1.0, 3, None));
+        assert!(e.contains("floor 3") && e.contains("floors: 0"), "{e}");
+        assert!(wrong(at(-1.0, 0, None)).contains("outside floor 0's plan"));
+        // an engine's set_position refuses what a build refuses
+        let cfg = EngineConfig::default();
+        for name in ["pdr", "fpbp", "gml"] {
+            let mut e = build_engine(name, site.clone(), &cfg, Some(at(1.0, 0, None))).unwrap();
+            let msg = e
+                .set_position(0, at(-1.0, 0, None))
+                .unwrap_err()
+                .to_string();
+            assert!(msg.contains("outside floor 0's plan"), "{name}: {msg}");
+            assert!(e.set_position(0, at(2.0, 0, None)).is_ok(), "{name}");
+        }
     }
 
     /// Engines that do not use WiFi count its scans and results and

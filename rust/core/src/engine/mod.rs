@@ -9,6 +9,7 @@
 
 pub mod config;
 pub mod factory;
+pub mod inputs;
 pub mod replay;
 
 use serde::{Deserialize, Serialize};
@@ -19,6 +20,7 @@ pub use config::{EngineConfig, TaskConfig};
 pub use factory::{
     ENGINE_NAMES, EngineData, build_engine, build_engine_with, check_initial_position,
 };
+pub use inputs::CountedInputs;
 
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -150,14 +152,21 @@ impl EngineStats {
 
 /// A positioning algorithm behind the common interface.
 ///
-/// Recording calls (`on_sensor`, `on_ble`, `on_gnss`) never fail: bad samples
-/// are counted in [`EngineStats`]. Engines own their RNGs, seeded from the
-/// config, so the same inputs give the same poses.
+/// Recording calls (`on_sensor`, `on_ble`, `on_gnss`, `on_wifi`) never fail:
+/// bad samples are counted in [`EngineStats`]. An input an engine does not
+/// use is ignored (the defaults); [`CountedInputs`], which every engine from
+/// [`build_engine`] is wrapped in, counts the inputs handed to it. Engines
+/// own their RNGs, seeded from the config, so the same inputs give the same
+/// poses.
 pub trait Engine: Send {
     /// The engine's name as used by `fpbp eval --engine`.
     fn name(&self) -> &'static str;
-    fn on_sensor(&mut self, event: &SensorEvent);
-    fn on_ble(&mut self, obs: &BleObservation);
+    /// One sensor event. Engines that do not use the motion sensors ignore
+    /// it (the default).
+    fn on_sensor(&mut self, _event: &SensorEvent) {}
+    /// One BLE advertisement. Engines that do not use BLE ignore it (the
+    /// default).
+    fn on_ble(&mut self, _obs: &BleObservation) {}
     fn on_gnss(&mut self, _fix: &GnssFix) {}
     /// One WiFi scan. Engines that do not use WiFi ignore it (the default).
     fn on_wifi(&mut self, _scan: &WifiScan) {}

@@ -30,7 +30,7 @@ struct WifiInput {
 /// A BLE-only (or WiFi-only) engine.
 pub struct BleOnlyEngine {
     kind: PositionerKind,
-    /// `Some` for the WiFi engines: BLE is then counted and ignored.
+    /// `Some` for the WiFi engines: BLE is then ignored.
     wifi: Option<WifiInput>,
     task: BleTask,
     period_ns: i64,
@@ -50,10 +50,23 @@ impl BleOnlyEngine {
         config: &EngineConfig,
         init: Option<InitialPosition>,
     ) -> Self {
+        let task = BleTask::new(kind, &config.ble, &site);
+        Self::assemble(kind, None, task, config, init, site)
+    }
+
+    /// The engine around `task`, before its first run.
+    fn assemble(
+        kind: PositionerKind,
+        wifi: Option<WifiInput>,
+        task: BleTask,
+        config: &EngineConfig,
+        init: Option<InitialPosition>,
+        site: Arc<Site>,
+    ) -> Self {
         BleOnlyEngine {
             kind,
-            wifi: None,
-            task: BleTask::new(kind, &config.ble, &site),
+            wifi,
+            task,
             period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
             pose: None,
             init,
@@ -94,22 +107,14 @@ impl BleOnlyEngine {
             })
             .collect();
         let front = BleFrontEnd::with_registry(&ble, BeaconRegistry::new(&aps));
-        Some(BleOnlyEngine {
-            kind,
-            wifi: Some(WifiInput {
-                name,
-                fresh: FreshResults::default(),
-                max_age_ns: config.wifi.max_age_ns(),
-                min_rssi_dbm: config.wifi.min_rssi_dbm,
-            }),
-            task: BleTask::with_parts(&ble, front, kind.build(&ble), Default::default()),
-            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
-            pose: None,
-            init,
-            given: false,
-            site,
-            stats: EngineStats::default(),
-        })
+        let wifi = WifiInput {
+            name,
+            fresh: FreshResults::default(),
+            max_age_ns: config.wifi.max_age_ns(),
+            min_rssi_dbm: config.wifi.min_rssi_dbm,
+        };
+        let task = BleTask::with_parts(&ble, front, kind.build(&ble), Default::default());
+        Some(Self::assemble(kind, Some(wifi), task, config, init, site))
     }
 }
 
@@ -119,20 +124,17 @@ impl Engine for BleOnlyEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         self.task.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if self.wifi.is_none() {
             self.task.on_observation(obs);
         }
     }
 
     fn on_wifi(&mut self, scan: &WifiScan) {
-        // The BLE engines do not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
+        // The BLE engines do not use WiFi: ignored.
         let Some(w) = self.wifi.as_mut() else { return };
         for r in w.fresh.of(scan, w.max_age_ns) {
             if r.rssi_dbm < w.min_rssi_dbm {
@@ -151,7 +153,7 @@ impl Engine for BleOnlyEngine {
     /// The pose becomes `at` now; the mean filter forgets the fixes from
     /// before and the next run searches around `at` (its previous position).
     fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
-        crate::engines::given_position::check(self.kind.name(), &self.site, &at)?;
+        crate::engine::check_initial_position(&self.site, &at)?;
         self.task.reset_position();
         let heading_rad = at
             .heading_rad
@@ -225,12 +227,7 @@ impl Engine for BleOnlyEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.task.front().counts();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected,
-            ..self.stats.clone()
-        }
+        self.stats.with_stages(self.task.front().counts(), 0)
     }
 }
 

@@ -206,8 +206,7 @@ impl FusionSide {
     /// detected before it are dropped, and the pose is published at `t_ns`.
     /// The heading is kept when `at` has none.
     pub fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
-        let name = if self.use_ppc { "fpbp" } else { "bp" };
-        super::given_position::check(name, &self.site, &at)?;
+        crate::engine::check_initial_position(&self.site, &at)?;
         drop(self.pdr.take_steps());
         self.floor = at.floor;
         if let Some(h) = at.heading_rad {
@@ -585,21 +584,14 @@ impl Engine for FpbpEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         self.fusion.on_sensor(event);
         self.ble.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if !self.ble.on_ble(obs) {
             self.stats.unknown_beacons += 1;
         }
-    }
-
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
     }
 
     /// The particles restart at `at`; the BLE side forgets its mean filter

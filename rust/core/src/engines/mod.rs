@@ -2,7 +2,6 @@
 
 pub mod ble_only;
 pub mod fpbp;
-pub mod given_position;
 pub mod pdr;
 pub mod ppsa;
 pub mod prox_pf;

@@ -10,7 +10,7 @@
 use std::sync::Arc;
 
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
-use crate::events::{BleObservation, SensorEvent};
+use crate::events::SensorEvent;
 use crate::pdr::Pdr;
 use crate::site::Site;
 use crate::{Error, Result};
@@ -47,12 +47,7 @@ impl PdrEngine {
                     .to_string(),
             )
         })?;
-        if !(init.x_m.is_finite() && init.y_m.is_finite()) {
-            return Err(Error::Input(format!(
-                "engine `pdr`: initial position ({}, {}) is not finite",
-                init.x_m, init.y_m
-            )));
-        }
+        crate::engine::check_initial_position(&site, &init)?;
         Ok(PdrEngine {
             pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             site,
@@ -81,24 +76,14 @@ impl Engine for PdrEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         self.pdr.on_sensor(event);
-    }
-
-    fn on_ble(&mut self, _obs: &BleObservation) {
-        self.stats.ble_observations += 1;
-    }
-
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
     }
 
     /// Dead reckoning restarts from `at` at `t_ns`: the distance walked (and
     /// so the accuracy radius) starts again, steps detected before are dropped,
     /// the heading is kept when `at` has none.
     fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<()> {
-        super::given_position::check("pdr", &self.site, &at)?;
+        crate::engine::check_initial_position(&self.site, &at)?;
         drop(self.pdr.take_steps());
         self.x_m = at.x_m;
         self.y_m = at.y_m;
@@ -147,11 +132,8 @@ impl Engine for PdrEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let p = self.pdr.stats();
-        EngineStats {
-            rejected_inputs: p.rejected(),
-            ..self.stats.clone()
-        }
+        let pdr = self.pdr.stats().rejected();
+        self.stats.with_stages(Default::default(), pdr)
     }
 }
 
@@ -162,18 +144,15 @@ mod tests {
     use crate::events::{LogEvent, SensorData, TruthPoint};
     use crate::pdr::PdrConfig;
     use crate::pdr::orientation::to_android;
-    use crate::site::SiteSpec;
+    use crate::site::testkit::open_map;
     use nalgebra::{UnitQuaternion, Vector3};
 
     fn open_site() -> Arc<Site> {
-        let spec: SiteSpec = serde_json::from_str(
-            r#"{"format":"fpbp-site","version":1,"name":"t","floors":[{"id":0,"open_area_m":[50,50]}]}"#,
-        )
-        .unwrap();
-        Arc::new(Site {
-            spec,
-            floors: Vec::new(),
-        })
+        let model = crate::ble::pathloss::PathLoss {
+            rssi_1m_dbm: -59.0,
+            exponent: 2.0,
+        };
+        crate::site::testkit::beacon_site("t", vec![open_map(50, 50)], &[], model)
     }
 
     #[test]

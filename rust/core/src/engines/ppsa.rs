@@ -515,12 +515,10 @@ impl Engine for PpsaEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         self.pdr.on_sensor(event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if self.front.on_observation(obs)
             && let Some(i) = self.front.registry().lookup(&obs.beacon_id)
         {
@@ -529,11 +527,6 @@ impl Engine for PpsaEngine {
             e.1 += 1;
             e.2 = e.2.max(obs.t_ns);
         }
-    }
-
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
@@ -551,13 +544,8 @@ impl Engine for PpsaEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.front.counts();
-        let p = self.pdr.stats();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: c.rejected + p.rejected(),
-            ..self.stats.clone()
-        }
+        let pdr = self.pdr.stats().rejected();
+        self.stats.with_stages(self.front.counts(), pdr)
     }
 }
 

@@ -25,12 +25,14 @@ use crate::Vec2;
 use crate::ble::{BleConfig, BleFrontEnd};
 use crate::engine::Task as T;
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
-use crate::events::{BleObservation, SensorData, SensorEvent};
+use crate::events::{BleObservation, SensorEvent};
 use crate::fingerprint::{FingerprintSet, wknn};
 use crate::floor::FloorTracker;
 use crate::kalman::{EkfConfig, robust_update, wrap_pi};
 use crate::pdr::Pdr;
 use crate::site::Site;
+
+use super::tc_ekf::{ekf_pose, tracked_floor};
 
 /// Without a step for this long the walker is standing (speed 0), s.
 const STILL_AFTER_S: f64 = 1.5;
@@ -140,16 +142,8 @@ impl RobustEkfEngine {
     fn fingerprint_fix(&mut self, t_ns: i64) -> Option<(i32, Vec2)> {
         let beacons = self.front.current(t_ns);
         let ble_floor = BleFrontEnd::likely_floor(&beacons, self.ble_cfg.gml.top_n)?;
-        // floors: the tracker (barometer changes + BLE votes) when the log
-        // has pressure, else the BLE floor
-        if let Some(v) = self.floors.vote(&beacons, self.ble_cfg.gml.top_n) {
-            self.floors.on_ble_floor(t_ns, v);
-        }
-        let floor = if self.floors.has_pressure() {
-            self.floors.floor().unwrap_or(ble_floor)
-        } else {
-            ble_floor
-        };
+        let top_n = self.ble_cfg.gml.top_n;
+        let floor = tracked_floor(&mut self.floors, t_ns, &beacons, top_n, ble_floor);
         let fcfg = &self.cfg.fingerprint;
         let fdb = self.dbs.floors.get(&floor)?;
         // the strongest heard beacons (current() is sorted strongest first)
@@ -225,16 +219,7 @@ impl RobustEkfEngine {
         if !self.initialised {
             return;
         }
-        self.pose = Some(Pose {
-            t_ns,
-            x_m: self.x[0],
-            y_m: self.x[1],
-            floor: self.floor,
-            heading_rad: self.x[3],
-            accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
-            floor_prob: 1.0,
-            source: crate::engine::PoseSource::Fused,
-        });
+        self.pose = Some(ekf_pose(t_ns, &self.x, &self.p, self.floor, self.x[3]));
     }
 }
 
@@ -244,21 +229,11 @@ impl Engine for RobustEkfEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
-        if let SensorData::Pressure(p) = event.data {
-            self.floors.on_pressure(event.t_ns, p);
-        }
-        self.pdr.on_sensor(event);
+        super::tc_ekf::on_sensor(&mut self.floors, &mut self.pdr, event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         self.front.on_observation(obs);
-    }
-
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
@@ -365,16 +340,8 @@ impl Engine for RobustEkfEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.front.counts();
-        let p = self.pdr.stats();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: self.stats.rejected_inputs
-                + c.rejected
-                + self.floors.rejected
-                + p.rejected(),
-            ..self.stats.clone()
-        }
+        let stages = self.floors.rejected + self.pdr.stats().rejected();
+        self.stats.with_stages(self.front.counts(), stages)
     }
 }
 
@@ -384,6 +351,7 @@ mod tests {
     use crate::ble::pathloss::{PathLoss, range_m};
     use crate::engine::build_engine;
     use crate::engine::replay::replay;
+    use crate::events::SensorData;
     use crate::events::{GnssFix, LogEvent, TruthPoint};
     use crate::site::testkit::{beacon_site, open_map};
 

@@ -13,7 +13,7 @@
 use std::sync::Arc;
 
 use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
-use crate::events::{BleObservation, SensorEvent, WifiScan};
+use crate::events::{BleObservation, WifiScan};
 use crate::radio::RadioModel;
 use crate::radio::reference_scans::{CandidateFix, ScanMetric, ScanTrail, candidate_fix};
 use crate::wifi::FreshResults;
@@ -94,12 +94,7 @@ impl Engine for ScanKnnEngine {
         "scan-knn"
     }
 
-    fn on_sensor(&mut self, _event: &SensorEvent) {
-        self.stats.sensor_events += 1;
-    }
-
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
             self.stats.rejected_inputs += 1;
             return;
@@ -111,7 +106,6 @@ impl Engine for ScanKnnEngine {
     }
 
     fn on_wifi(&mut self, scan: &WifiScan) {
-        self.stats.count_wifi(scan);
         let max_age = (self.wifi_max_age_s * 1e9) as i64;
         let Some(scans) = self.model.reference_scans() else {
             return;

@@ -180,14 +180,13 @@ impl TcEkfEngine {
         let Some(ble_floor) = BleFrontEnd::likely_floor(&all, self.ble_cfg.gml.top_n) else {
             return false;
         };
-        if let Some(v) = self.floors.vote(&all, self.ble_cfg.gml.top_n) {
-            self.floors.on_ble_floor(t_ns, v);
-        }
-        let floor = if self.floors.has_pressure() {
-            self.floors.floor().unwrap_or(ble_floor)
-        } else {
-            ble_floor
-        };
+        let floor = tracked_floor(
+            &mut self.floors,
+            t_ns,
+            &all,
+            self.ble_cfg.gml.top_n,
+            ble_floor,
+        );
         let beacons: Vec<_> = all.into_iter().filter(|b| b.floor == floor).collect();
         if beacons.is_empty() {
             return false;
@@ -303,17 +302,60 @@ impl TcEkfEngine {
             self.initialised = false;
             return;
         }
-        self.pose = Some(Pose {
-            t_ns,
-            x_m: self.x[0],
-            y_m: self.x[1],
-            floor: self.floor,
-            heading_rad,
-            accuracy_m: (self.p[(0, 0)] + self.p[(1, 1)]).max(0.0).sqrt(),
-            floor_prob: 1.0,
-            source: crate::engine::PoseSource::Fused,
-        });
+        self.pose = Some(ekf_pose(t_ns, &self.x, &self.p, self.floor, heading_rad));
     }
+}
+
+/// The floor an EKF engine works on at `t_ns`: the floor tracker's
+/// (barometer changes + this task's BLE floor vote among the strongest
+/// `top_n` of `beacons`) when the log has pressure, else `ble_floor`.
+/// Shared with `robust-ekf`.
+pub(super) fn tracked_floor(
+    floors: &mut FloorTracker,
+    t_ns: i64,
+    beacons: &[FilteredBeacon],
+    top_n: usize,
+    ble_floor: i32,
+) -> i32 {
+    if let Some(v) = floors.vote(beacons, top_n) {
+        floors.on_ble_floor(t_ns, v);
+    }
+    if floors.has_pressure() {
+        floors.floor().unwrap_or(ble_floor)
+    } else {
+        ble_floor
+    }
+}
+
+/// The published pose of an EKF whose state starts with the position
+/// [x, y]: its accuracy radius is the root of the position variances' sum.
+/// Shared with `robust-ekf`.
+pub(super) fn ekf_pose(
+    t_ns: i64,
+    x: &DVector<f64>,
+    p: &DMatrix<f64>,
+    floor: i32,
+    heading_rad: f64,
+) -> Pose {
+    Pose {
+        t_ns,
+        x_m: x[0],
+        y_m: x[1],
+        floor,
+        heading_rad,
+        accuracy_m: (p[(0, 0)] + p[(1, 1)]).max(0.0).sqrt(),
+        floor_prob: 1.0,
+        source: crate::engine::PoseSource::Fused,
+    }
+}
+
+/// A sensor event of an EKF engine: pressure samples to the floor
+/// tracker, everything to the PDR. Shared with `robust-ekf`.
+pub(super) fn on_sensor(floors: &mut FloorTracker, pdr: &mut Pdr, event: &SensorEvent) {
+    if let SensorData::Pressure(p) = event.data {
+        floors.on_pressure(event.t_ns, p);
+    }
+    pdr.on_sensor(event);
 }
 
 impl Engine for TcEkfEngine {
@@ -322,21 +364,11 @@ impl Engine for TcEkfEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
-        if let SensorData::Pressure(p) = event.data {
-            self.floors.on_pressure(event.t_ns, p);
-        }
-        self.pdr.on_sensor(event);
+        on_sensor(&mut self.floors, &mut self.pdr, event);
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         self.front.on_observation(obs);
-    }
-
-    fn on_wifi(&mut self, scan: &crate::events::WifiScan) {
-        // This engine does not use WiFi: counted and ignored.
-        self.stats.count_wifi(scan);
     }
 
     fn on_gnss(&mut self, fix: &GnssFix) {
@@ -430,16 +462,8 @@ impl Engine for TcEkfEngine {
     }
 
     fn stats(&self) -> EngineStats {
-        let c = self.front.counts();
-        let p = self.pdr.stats();
-        EngineStats {
-            unknown_beacons: c.unknown,
-            rejected_inputs: self.stats.rejected_inputs
-                + c.rejected
-                + self.floors.rejected
-                + p.rejected(),
-            ..self.stats.clone()
-        }
+        let stages = self.floors.rejected + self.pdr.stats().rejected();
+        self.stats.with_stages(self.front.counts(), stages)
     }
 }
 

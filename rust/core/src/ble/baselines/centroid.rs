@@ -34,45 +34,11 @@ pub fn weighted_centroid(
     if wsum > 0.0 { finite(sum / wsum) } else { None }
 }
 
-/// FRBW (Alsmadi et al. 2021, as configured in FP-BP Sec. V): weighted
-/// centroid of the 3 strongest beacons with weights d^-g, g = 5. Needs 3 beacons.
-#[derive(Debug, Clone)]
-pub struct Frbw {
-    top_n: usize,
-    g: f64,
-    min_d_m: f64,
-}
-
-impl Frbw {
-    pub fn new(cfg: &BleConfig) -> Self {
-        Frbw {
-            top_n: cfg.frbw.top_n,
-            g: cfg.frbw.g,
-            min_d_m: cfg.min_distance_m,
-        }
-    }
-}
-
-impl BlePositioner for Frbw {
-    fn name(&self) -> &'static str {
-        "frbw"
-    }
-    fn locate(
-        &mut self,
-        beacons: &[FilteredBeacon],
-        _grid: &[Vec2],
-        _prev: Option<Vec2>,
-    ) -> Option<Vec2> {
-        if beacons.len() < 3 {
-            return None;
-        }
-        weighted_centroid(beacons, self.top_n, self.g, self.min_d_m)
-    }
-}
-
-/// Weighted centroid of the strongest beacons with weights d^-exponent. Needs 3 beacons.
+/// Weighted centroid of the strongest beacons with weights d^-exponent
+/// (`wcentroid`, and FRBW with its own settings). Needs 3 beacons.
 #[derive(Debug, Clone)]
 pub struct WeightedCentroid {
+    name: &'static str,
     top_n: usize,
     exponent: f64,
     min_d_m: f64,
@@ -81,8 +47,21 @@ pub struct WeightedCentroid {
 impl WeightedCentroid {
     pub fn new(cfg: &BleConfig) -> Self {
         WeightedCentroid {
+            name: "wcentroid",
             top_n: cfg.wcentroid.top_n,
             exponent: cfg.wcentroid.exponent,
+            min_d_m: cfg.min_distance_m,
+        }
+    }
+
+    /// FRBW (Alsmadi et al. 2021, as configured in FP-BP Sec. V): the
+    /// weighted centroid of the `frbw.top_n` (3) strongest beacons with
+    /// weights d^-g, g = `frbw.g` (5).
+    pub fn frbw(cfg: &BleConfig) -> Self {
+        WeightedCentroid {
+            name: "frbw",
+            top_n: cfg.frbw.top_n,
+            exponent: cfg.frbw.g,
             min_d_m: cfg.min_distance_m,
         }
     }
@@ -90,7 +69,7 @@ impl WeightedCentroid {
 
 impl BlePositioner for WeightedCentroid {
     fn name(&self) -> &'static str {
-        "wcentroid"
+        self.name
     }
     fn locate(
         &mut self,

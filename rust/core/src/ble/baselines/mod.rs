@@ -7,7 +7,7 @@ mod centroid;
 mod ml;
 mod trilat;
 
-pub use centroid::{Frbw, WeightedCentroid, weighted_centroid};
+pub use centroid::{WeightedCentroid, weighted_centroid};
 pub use ml::MlContinuous;
 pub use trilat::LlsTrilateration;
 
@@ -30,7 +30,7 @@ mod tests {
             let m = MlContinuous::new(&cfg).locate(&fb, &[], None).unwrap();
             assert!((m - truth).norm() < 1e-3, "ml {m:?}");
             // centroids are biased towards the beacons but stay near the truth
-            let f = Frbw::new(&cfg).locate(&fb, &[], None).unwrap();
+            let f = WeightedCentroid::frbw(&cfg).locate(&fb, &[], None).unwrap();
             assert!((f - truth).norm() < 6.0, "frbw {f:?}");
             let w = WeightedCentroid::new(&cfg).locate(&fb, &[], None).unwrap();
             assert!((w - truth).norm() < 6.0, "wcentroid {w:?}");
@@ -53,7 +53,7 @@ mod tests {
         let two = noise_free(&line[..2], Vec2::new(5.0, 1.0));
         assert_eq!(LlsTrilateration::new(&cfg).locate(&two, &[], None), None);
         assert_eq!(MlContinuous::new(&cfg).locate(&two, &[], None), None);
-        assert_eq!(Frbw::new(&cfg).locate(&two, &[], None), None);
+        assert_eq!(WeightedCentroid::frbw(&cfg).locate(&two, &[], None), None);
         assert_eq!(WeightedCentroid::new(&cfg).locate(&two, &[], None), None);
     }
 
@@ -65,7 +65,7 @@ mod tests {
         assert_eq!(LlsTrilateration::new(&cfg).locate(&fb, &[], None), None);
         for p in [
             MlContinuous::new(&cfg).locate(&fb, &[], None),
-            Frbw::new(&cfg).locate(&fb, &[], None),
+            WeightedCentroid::frbw(&cfg).locate(&fb, &[], None),
         ] {
             assert!(p.is_some_and(|p| p.x.is_finite() && p.y.is_finite()));
         }

@@ -322,6 +322,7 @@ impl Snapshot {
             // null for engines that estimate none
             "rssi_offset_db": stats.rssi_offset_db,
             "step_scale": stats.step_scale,
+            "radio_trust": stats.radio_trust,
         })
         .to_string()
     }

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Mean error of one engine config on the fusion tuning or held-out sets
-# (docs/fusion.md "Session 4"): one line per call, for parameter sweeps.
+# (docs/lab/fusion-sessions.md "Session 4"): one line per call, for parameter sweeps.
 #
 # Usage (from the repository root, after `cargo build --release -p fpbp-cli`
 # and the site imports of docs/sites.md):

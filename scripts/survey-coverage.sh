@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # How much of a held-out figure comes from the survey having walked the test
-# route (docs/tcpf.md "Stop 34: what the held-out halves measure").
+# route (docs/lab/tcpf-history.md "Stop 34: what the held-out halves measure").
 #
 # The shared logs' even / odd split interleaves recordings that belong
 # together: ILC site1/F1 paths are cuts of one continuous session (path i+1

@@ -151,6 +151,7 @@ pub fn start_for(
 
 /// Builds engines by name (the real factory, or a test double).
 pub type EngineBuilder<'a> = dyn Fn(&str, Arc<Site>, &EngineConfig, Option<InitialPosition>) -> anyhow::Result<Box<dyn Engine>>
+    + Sync
     + 'a;
 
 /// The core's factory.
@@ -384,8 +385,8 @@ pub struct LogMetrics {
     pub read: ReadSummary,
 }
 
-/// One engine's object in metrics.json (DESIGN.md's keys plus `no_fix`,
-/// `init` and per-log rows).
+/// One engine's object in metrics.json (the keys of docs/ARCHITECTURE.md
+/// "Evaluation protocol" plus `no_fix`, `init` and per-log rows).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct EngineMetrics {
     pub engine: String,

@@ -1,5 +1,6 @@
-//! `fpbp eval`: engines over logs -> DIR/metrics.json (DESIGN.md keys per
-//! engine, per-log rows), DIR/cdf.png, a progress bar and a table.
+//! `fpbp eval`: engines over logs -> DIR/metrics.json (the keys of
+//! docs/ARCHITECTURE.md "Evaluation protocol" per engine, per-log rows),
+//! DIR/cdf.png, a progress bar and a table.
 
 use std::path::{Path, PathBuf};
 
@@ -9,8 +10,9 @@ use serde::Serialize;
 use crate::common::{self, EngineBuilder, EngineMetrics, InitMode, LogRun, ReadSummary};
 use crate::plot;
 
-/// Which logs of the sorted list to evaluate (DESIGN.md's fixed split: sort by
-/// file name; even indices, from 0, calibrate; odd indices test).
+/// Which logs of the sorted list to evaluate (the fixed split of
+/// docs/ARCHITECTURE.md "Evaluation protocol": sort by file name; even
+/// indices, from 0, calibrate; odd indices test).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Split {
@@ -69,6 +71,11 @@ pub struct Args {
     /// Radios whose events the engines get (the others' are dropped before replay).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "ble,wifi")]
     pub radios: Vec<crate::radios::Radio>,
+    /// Worker threads: the (log, seed) replays run in parallel, each engine
+    /// on its own RNG, so the tracks and metrics do not depend on it
+    /// (default: every core; 1 = serial).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=1024))]
+    pub jobs: Option<u16>,
 }
 
 /// Applies the split to `logs` sorted by file name.
@@ -124,25 +131,31 @@ pub fn run_seeds(
     progress: bool,
 ) -> anyhow::Result<Vec<crate::report::SeedSummary>> {
     let started = std::time::Instant::now();
+    let plan = Plan::new(args)?;
+    let cfgs = seeds
+        .iter()
+        .map(|&s| common::load_config(args.config.as_deref(), Some(s)))
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    if progress {
+        eprintln!(
+            "seeds {seeds:?}: {} replays on {} threads",
+            seeds.len() * plan.logs.len() * plan.engines.len(),
+            jobs(args)
+        );
+    }
+    let units = replay_all(args, &plan, &cfgs, build, progress)?;
     let mut per_seed: Vec<Vec<EngineMetrics>> = Vec::new();
     let mut failed = None;
-    for (k, &s) in seeds.iter().enumerate() {
-        if progress {
-            eprintln!("seed {s} ({} of {})", k + 1, seeds.len());
-        }
+    for ((&s, cfg), units) in seeds.iter().zip(&cfgs).zip(units) {
         let a = Args {
             seed: Some(s),
             seeds: None,
             out: args.out.join(format!("seed-{s}")),
             ..args.clone()
         };
-        match run_inner(&a, build, progress) {
-            Ok((m, empty)) => {
-                failed = failed.or(empty.err());
-                per_seed.push(m);
-            }
-            Err(e) => return Err(e),
-        }
+        let (m, empty) = write_outputs(&a, &plan, cfg, units, started)?;
+        failed = failed.or(empty.err());
+        per_seed.push(m);
     }
     let summary: Vec<crate::report::SeedSummary> = (0..per_seed[0].len())
         .map(|i| {
@@ -324,64 +337,156 @@ fn run_inner(
     progress: bool,
 ) -> anyhow::Result<(Vec<EngineMetrics>, anyhow::Result<()>)> {
     let started = std::time::Instant::now();
-    let site = common::load_site(&args.site)?;
+    let plan = Plan::new(args)?;
     let cfg = common::load_config(args.config.as_deref(), args.seed)?;
-    let opts = common::read_options(&site, args.floor, args.strict);
-    let logs = select_logs(&args.logs, args.split);
-    if logs.is_empty() {
-        bail!("no logs left after --split {:?}", args.split);
+    let units = replay_all(args, &plan, std::slice::from_ref(&cfg), build, progress)?
+        .pop()
+        .unwrap_or_default();
+    write_outputs(args, &plan, &cfg, units, started)
+}
+
+/// What an evaluation runs: the site, the logs after the split and the engines.
+struct Plan {
+    site: std::sync::Arc<fpbp_core::site::Site>,
+    opts: fpbp_logs::ReadOptions,
+    logs: Vec<PathBuf>,
+    engines: Vec<String>,
+}
+
+impl Plan {
+    fn new(args: &Args) -> anyhow::Result<Plan> {
+        let site = common::load_site(&args.site)?;
+        let opts = common::read_options(&site, args.floor, args.strict);
+        let logs = select_logs(&args.logs, args.split);
+        if logs.is_empty() {
+            bail!("no logs left after --split {:?}", args.split);
+        }
+        let engines: Vec<String> = args
+            .engine
+            .iter()
+            .map(|e| e.trim().to_string())
+            .filter(|e| !e.is_empty())
+            .collect();
+        if engines.is_empty() {
+            bail!("--engine: no engine named");
+        }
+        Ok(Plan {
+            site,
+            opts,
+            logs,
+            engines,
+        })
     }
-    let engines: Vec<String> = args
-        .engine
-        .iter()
-        .map(|e| e.trim().to_string())
-        .filter(|e| !e.is_empty())
-        .collect();
-    if engines.is_empty() {
-        bail!("--engine: no engine named");
-    }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("cannot create {}", args.out.display()))?;
+}
+
+/// One log replayed by every engine of the plan under one config.
+struct LogUnit {
+    /// One run per engine, in the plan's order.
+    runs: Vec<LogRun>,
+    read: ReadSummary,
+    /// The log with only what the no-pose diagnosis reads (BLE rows).
+    loaded: common::LoadedLog,
+}
+
+/// The worker threads of `args` (`--jobs`, else every core).
+fn jobs(args: &Args) -> usize {
+    args.jobs.map_or_else(
+        || std::thread::available_parallelism().map_or(1, |n| n.get()),
+        usize::from,
+    )
+}
+
+/// Replays every (config, log) pair of the plan on [`jobs`] threads; the
+/// result is indexed [config][log] whatever the order the work ran in, and
+/// the first error (in that order) is returned.
+fn replay_all(
+    args: &Args,
+    plan: &Plan,
+    cfgs: &[fpbp_core::engine::EngineConfig],
+    build: &EngineBuilder,
+    progress: bool,
+) -> anyhow::Result<Vec<Vec<LogUnit>>> {
     let bar = if progress {
-        crate::progress::bar((logs.len() * engines.len()) as u64)
+        crate::progress::bar((cfgs.len() * plan.logs.len() * plan.engines.len()) as u64)
     } else {
         indicatif::ProgressBar::hidden()
     };
+    let work: Vec<(usize, usize)> = (0..cfgs.len())
+        .flat_map(|c| (0..plan.logs.len()).map(move |l| (c, l)))
+        .collect();
+    let done = crate::parallel::map_in_order(&work, jobs(args), |&(c, l)| {
+        replay_log(args, plan, &cfgs[c], &plan.logs[l], build, &bar)
+    });
+    bar.finish_and_clear();
+    let mut out: Vec<Vec<LogUnit>> = cfgs.iter().map(|_| Vec::new()).collect();
+    for ((c, _), unit) in work.into_iter().zip(done) {
+        out[c].push(unit?);
+    }
+    Ok(out)
+}
+
+/// Reads `path` and replays it through every engine of the plan.
+fn replay_log(
+    args: &Args,
+    plan: &Plan,
+    cfg: &fpbp_core::engine::EngineConfig,
+    path: &Path,
+    build: &EngineBuilder,
+    bar: &indicatif::ProgressBar,
+) -> anyhow::Result<LogUnit> {
+    let mut log = common::load_log(path, &plan.opts)?;
+    crate::radios::keep_radios(&mut log.events, &args.radios);
+    let read = ReadSummary::from(&log.report);
+    let mut runs = Vec::with_capacity(plan.engines.len());
+    for e in &plan.engines {
+        bar.set_message(format!("{e} on {}", short(path)));
+        runs.push(common::run_log(build, e, &plan.site, cfg, args.init, &log)?);
+        bar.inc(1);
+    }
+    let loaded = common::LoadedLog {
+        events: log
+            .events
+            .into_iter()
+            .filter(|e| matches!(e, fpbp_core::events::LogEvent::Ble(_)))
+            .collect(),
+        ..log
+    };
+    Ok(LogUnit { runs, read, loaded })
+}
+
+/// Scores one config's replays and writes DIR/metrics.json, cdf.png and
+/// points.csv; returns the metrics and, apart, the "nothing positioned" check.
+fn write_outputs(
+    args: &Args,
+    plan: &Plan,
+    cfg: &fpbp_core::engine::EngineConfig,
+    units: Vec<LogUnit>,
+    started: std::time::Instant,
+) -> anyhow::Result<(Vec<EngineMetrics>, anyhow::Result<()>)> {
+    let (site, logs, engines) = (&plan.site, &plan.logs, &plan.engines);
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut runs: Vec<Vec<LogRun>> = engines.iter().map(|_| Vec::new()).collect();
     let mut reads: Vec<ReadSummary> = Vec::new();
     let mut loaded = Vec::new();
-    for path in &logs {
-        bar.set_message(format!("reading {}", short(path)));
-        let mut log = common::load_log(path, &opts)?;
-        crate::radios::keep_radios(&mut log.events, &args.radios);
-        reads.push(ReadSummary::from(&log.report));
-        for (i, e) in engines.iter().enumerate() {
-            bar.set_message(format!("{e} on {}", short(path)));
-            runs[i].push(common::run_log(build, e, &site, &cfg, args.init, &log)?);
-            bar.inc(1);
+    for unit in units {
+        for (i, r) in unit.runs.into_iter().enumerate() {
+            runs[i].push(r);
         }
-        // keep only what the no-pose diagnosis reads (BLE ids, counts)
-        loaded.push(common::LoadedLog {
-            events: log
-                .events
-                .into_iter()
-                .filter(|e| matches!(e, fpbp_core::events::LogEvent::Ble(_)))
-                .collect(),
-            ..log
-        });
+        reads.push(unit.read);
+        loaded.push(unit.loaded);
     }
-    bar.finish_and_clear();
     let metrics: Vec<EngineMetrics> = engines
         .iter()
         .zip(&runs)
-        .map(|(e, r)| EngineMetrics::from_runs(&site, e, args.init, r, &reads))
+        .map(|(e, r)| EngineMetrics::from_runs(site, e, args.init, r, &reads))
         .collect();
     crate::report::MetricsDoc {
         split: Some(args.split),
         ..crate::report::MetricsDoc::new(
             "eval",
             &args.site,
-            &logs,
+            logs,
             args.init,
             vec![cfg.seed],
             started.elapsed().as_secs_f64(),
@@ -389,11 +494,7 @@ fn run_inner(
         )
     }
     .write(&args.out)?;
-    let series: Vec<plot::CdfSeries> = metrics
-        .iter()
-        .zip(&runs)
-        .map(|(m, _)| crate::report::cdf_series(m))
-        .collect();
+    let series: Vec<plot::CdfSeries> = metrics.iter().map(crate::report::cdf_series).collect();
     let title = format!(
         "error CDF, {} logs, split {:?}, seed {}",
         logs.len(),
@@ -403,11 +504,11 @@ fn run_inner(
     .to_lowercase();
     plot::cdf_png(&args.out.join("cdf.png"), &title, &series)?;
     let pp = args.out.join("points.csv");
-    std::fs::write(&pp, points_csv(&engines, &runs))
+    std::fs::write(&pp, points_csv(engines, &runs))
         .with_context(|| format!("cannot write {}", pp.display()))?;
     let refs: Vec<&common::LoadedLog> = loaded.iter().collect();
     let mrefs: Vec<&EngineMetrics> = metrics.iter().collect();
-    let empty = crate::report::check_positioned(&site, &refs, &engines, &runs, &mrefs);
+    let empty = crate::report::check_positioned(site, &refs, engines, &runs, &mrefs);
     Ok((metrics, empty))
 }
 
@@ -537,6 +638,7 @@ mod tests {
             fingerprints: None,
             radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
+            jobs: None,
         };
         // walk-east has no start without --init truth: it positions nothing,
         // which is an error naming it (after the outputs are written)
@@ -643,6 +745,52 @@ mod tests {
                 .unwrap();
         assert_eq!(json["seeds"], serde_json::json!([1, 2, 3]));
         assert!(json["engines"][0]["coverage"]["mean"].as_f64() == Some(1.0));
+        // Serial and parallel runs write the same points and metrics (all
+        // but the timing fields) for every seed.
+        for jobs in [1, 3] {
+            run_seeds(
+                &Args {
+                    out: d.join(format!("jobs-{jobs}")),
+                    engine: vec!["pdr".into(), "walk-east".into()],
+                    init: InitMode::Truth,
+                    jobs: Some(jobs),
+                    ..args.clone()
+                },
+                &seeds,
+                &builder,
+                false,
+            )
+            .unwrap();
+        }
+        for s in seeds {
+            let read = |jobs: u16, f: &str| {
+                std::fs::read_to_string(d.join(format!("jobs-{jobs}/seed-{s}/{f}"))).unwrap()
+            };
+            assert!(read(1, "points.csv").lines().count() > 20);
+            assert_eq!(read(1, "points.csv"), read(3, "points.csv"), "seed {s}");
+            let errors = |jobs: u16| {
+                let v: serde_json::Value =
+                    serde_json::from_str(&read(jobs, "metrics.json")).unwrap();
+                v["engines"]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|e| {
+                        (
+                            e["engine"].clone(),
+                            e["mpe_m"].clone(),
+                            e["per_log"]
+                                .as_array()
+                                .unwrap()
+                                .iter()
+                                .map(|l| l["log"].clone())
+                                .collect::<Vec<_>>(),
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(errors(1), errors(3), "seed {s}");
+        }
         std::fs::remove_dir_all(&d).ok();
     }
 
@@ -678,6 +826,7 @@ mod tests {
             fingerprints: None,
             radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
+            jobs: None,
         };
         let ms = run_with(&args, &common::core_builder, false).unwrap();
         let m = &ms[0];

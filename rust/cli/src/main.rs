@@ -14,6 +14,7 @@ mod import_overlay;
 mod import_raster;
 mod import_truth;
 mod map_check;
+mod parallel;
 mod progress;
 mod radio_map;
 mod radios;

@@ -1,6 +1,6 @@
 //! `fpbp calibrate --radio-map` end to end on a shipped log with truth:
-//! the written radio map carries the survey's magnetic field (stop 32's
-//! map learned none from `calibrate`, which dropped the magnetometer
+//! the written radio map carries the survey's magnetic field (the maps of
+//! docs/lab/tcpf-history.md "Stop 32" learned none from `calibrate`, which dropped the magnetometer
 //! samples with the other sensors before building the map).
 
 use std::path::{Path, PathBuf};

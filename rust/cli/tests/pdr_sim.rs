@@ -24,8 +24,8 @@ fn run(site: &Site, profile: &str, seed: u64, cfg: &PdrConfig) -> (f64, f64) {
     let mut req = SimRequest::new(60.0, seed);
     req.profile = SimProfile::named(profile).unwrap();
     // The PDR's own errors only: a walker with the PDR's step-length model
-    // and a small phone-to-walking-direction offset (the defaults since
-    // session 3 of issue 6 add the real walkers' 12 % / 10 deg spread).
+    // and a small phone-to-walking-direction offset (the defaults add the
+    // real walkers' 12 % / 10 deg spread: docs/sim.md "PDR drift").
     req.profile.imu.walker_step_length_sd_rel = 0.0;
     req.profile.imu.yaw_offset_rad = 0.05;
     let log = simulate(site, &req).unwrap();

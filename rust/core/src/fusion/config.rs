@@ -232,7 +232,8 @@ pub struct FusionConfig {
     /// fraction of the weight and is not the room of x^(k-1), the track
     /// moves there even through a wall (PPC is skipped for that step),
     /// dimensionless in [0, 1]; 0 disables the switch. Default 0.4 (0.6
-    /// before session 3; 24 simulated tuning logs, docs/parameters.md).
+    /// before; 24 simulated tuning logs, docs/lab/fusion-sessions.md
+    /// "Session 3").
     pub room_switch_mass: f64,
     /// Whether each x_B weights the particles at one step only (the first
     /// step after it arrived) instead of at every step while it is fresh.

@@ -4,7 +4,7 @@
 //! the phone is held. On the shared ILC site1/F1 traces the walks' mean
 //! |B| in a 2 m cell agrees across walkers and phones to about 1.9 uT while
 //! the cell means vary about 6 uT over the floor (`cargo run --release -p
-//! fpbp-cli --example magnetic_map_check`, docs/tcpf.md "Stop 32").
+//! fpbp-cli --example magnetic_map_check`, docs/lab/tcpf-history.md "Stop 32").
 //!
 //! [`MagneticMapBuilder`] bins the placed samples of every survey log
 //! ([`super::survey::magnetic_samples`]) per floor in `bin_m` squares and

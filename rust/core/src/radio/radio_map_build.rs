@@ -69,7 +69,7 @@ pub struct RadioMapConfig {
     pub moving_min_bins: usize,
     /// Remove each survey walk's own RSSI offset (per radio kind, learned
     /// where walks share bins: [`super::walk_offsets`]) before smoothing.
-    /// Default true (stop 33 folds: docs/parameters.md).
+    /// Default true (the folds of docs/lab/tcpf-history.md "Stop 33").
     pub walk_offsets: bool,
     /// A walk needs this many bins shared with other walks for an offset
     /// (fewer: none). Default 10.

@@ -258,7 +258,7 @@ pub struct AnchorConfig {
     /// last query's candidates, moved by the steps walked since (a query
     /// that gave none is repeated at the next radio task). 0 = at every
     /// radio task. The query's postings walk is most of the radio task's
-    /// time (docs/tcpf.md "Speed, stop 33").
+    /// time (docs/lab/tcpf-speed.md "Speed, stop 33").
     pub query_period_s: f64,
 }
 

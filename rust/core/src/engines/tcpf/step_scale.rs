@@ -1,12 +1,12 @@
 //! The user's step length, learned online (`tcpf.online_step`; off by
-//! default: docs/tcpf.md "Stop 32").
+//! default: docs/lab/tcpf-history.md "Stop 32").
 //!
 //! The PDR's step length comes from one global Weinberg constant fitted on
 //! the survey walkers; a user's steps can be a quarter longer or shorter.
 //! The per-particle step scales do not learn it: walls kill the particles
-//! that travel further, so they select short steps (docs/tcpf.md "Stop
-//! 31"). This is a cloud-level estimate instead, like the phone's RSSI
-//! offset: over windows of `window_m` walked while the cloud stays
+//! that travel further, so they select short steps
+//! (docs/lab/tcpf-history.md "Stop 31"). This is a cloud-level estimate
+//! instead, like the phone's RSSI offset: over windows of `window_m` walked while the cloud stays
 //! converged, the scale of the similarity (rotation, scale, shift) that
 //! best carries the PDR's raw track onto the track of the cloud's mean;
 //! the estimate is the walked-length-weighted mean of the windows' scales
@@ -15,10 +15,10 @@
 //! while the radio keeps pulling the cloud ahead of its steps the scale
 //! grows, until the steps carry the cloud where the radio has it.
 //!
-//! Measured (Stop 32): on the real sites the radio pulls the walking
-//! cloud back, not ahead (it hears where the walker was), on ILC F1 as on
-//! IPIN, so the iteration settles below 1 on both sites and does not find
-//! the IPIN walkers' longer steps.
+//! Measured (docs/lab/tcpf-history.md "Stop 32"): on the real sites the
+//! radio pulls the walking cloud back, not ahead (it hears where the
+//! walker was), on ILC F1 as on IPIN, so the iteration settles below 1 on
+//! both sites and does not find the IPIN walkers' longer steps.
 
 use serde::{Deserialize, Serialize};
 

@@ -16,6 +16,14 @@ enum class PositioningState {
 
     /** Paused by the app: inputs and tasks stopped, the engine kept. */
     PAUSED,
+
+    /**
+     * The engine failed and was stopped: a start that threw (bad site, config
+     * or engine name), an internal error of the native library (a panic
+     * poisons that engine), or a task that threw. [Status.failure] says what;
+     * [io.fpbp.android.FpbpPositioning.start] tries again.
+     */
+    FAILED,
 }
 
 /** Something that keeps the positioning from working as it should. */
@@ -46,6 +54,21 @@ enum class Problem {
 
     /** A sensor the engine uses is missing on this phone ([Status.missingSensors]). */
     SENSOR_MISSING,
+
+    /**
+     * Android refused the foreground service ([Status.messages] says why:
+     * location permission missing, or `ForegroundServiceStartNotAllowedException`
+     * when asked from the background on 12+). Positioning goes on while the
+     * app is visible.
+     */
+    FOREGROUND_SERVICE_REFUSED,
+
+    /**
+     * The engine refused the last `setPosition` ([Status.messages] says why:
+     * a point off the site's floors, an engine that takes no position, a
+     * position outside the site's georef). Cleared by the next accepted one.
+     */
+    POSITION_REFUSED,
 }
 
 /**
@@ -54,6 +77,9 @@ enum class Problem {
  * @property missingPermissions manifest names (`android.permission.*`) not granted.
  * @property missingSensors Android `Sensor.TYPE_*` codes the phone lacks.
  * @property scanErrorCode the last `ScanCallback.onScanFailed` code while [Problem.SCAN_FAILED].
+ * @property failure what made the state [PositioningState.FAILED] (exception class and message), else null.
+ * @property messages details of the problems that carry one
+ *   ([Problem.FOREGROUND_SERVICE_REFUSED], [Problem.POSITION_REFUSED]).
  */
 data class Status(
     val state: PositioningState,
@@ -61,6 +87,8 @@ data class Status(
     val missingPermissions: List<String> = emptyList(),
     val missingSensors: List<Int> = emptyList(),
     val scanErrorCode: Int? = null,
+    val failure: String? = null,
+    val messages: Map<Problem, String> = emptyMap(),
 ) {
     /** One line for a status bar. */
     fun describe(): String {
@@ -70,6 +98,7 @@ data class Status(
             PositioningState.POSITIONING -> "positioning"
             PositioningState.LOST -> "lost (no beacon heard lately: dead reckoning)"
             PositioningState.PAUSED -> "paused"
+            PositioningState.FAILED -> "failed: $failure"
         }
         if (problems.isEmpty()) return what
         val details = problems.sorted().joinToString(", ") { p ->
@@ -77,6 +106,8 @@ data class Status(
                 Problem.PERMISSION_MISSING -> "missing permission " + missingPermissions.joinToString(" ") { it.substringAfterLast('.') }
                 Problem.SENSOR_MISSING -> "missing sensor types $missingSensors"
                 Problem.SCAN_FAILED -> "BLE scan failed (error $scanErrorCode)"
+                Problem.FOREGROUND_SERVICE_REFUSED, Problem.POSITION_REFUSED ->
+                    p.name.lowercase().replace('_', ' ') + (messages[p]?.let { " ($it)" } ?: "")
                 else -> p.name.lowercase().replace('_', ' ')
             }
         }
@@ -120,6 +151,8 @@ class StatusTracker(
     private var missingPermissions = emptyList<String>()
     private var missingSensors = emptyList<Int>()
     private var scanError: Int? = null
+    private var failure: String? = null
+    private val messages = sortedMapOf<Problem, String>()
     private var last: Status? = null
 
     /** The current status. */
@@ -127,6 +160,7 @@ class StatusTracker(
     val status: Status get() = compute()
 
     @Synchronized fun started() {
+        failure = null
         running = true
         paused = false
         startedNs = clock.nowNs()
@@ -141,6 +175,22 @@ class StatusTracker(
         missingPermissions = emptyList()
         missingSensors = emptyList()
         scanError = null
+        messages.clear()
+        failure = null
+    }
+
+    /**
+     * The engine failed and was stopped: [PositioningState.FAILED] with
+     * [message] until the next [started] or [stopped]. Call after [stopped].
+     */
+    @Synchronized fun failed(message: String) {
+        failure = message
+    }
+
+    /** Sets [problem] with a [message] (shown by [Status.describe]), or clears it when [message] is null. */
+    @Synchronized fun set(problem: Problem, message: String?) {
+        if (message != null) messages[problem] = message else messages.remove(problem)
+        set(problem, message != null)
     }
 
     @Synchronized fun paused(p: Boolean) {
@@ -151,6 +201,7 @@ class StatusTracker(
     /** Sets or clears [problem]. */
     @Synchronized fun set(problem: Problem, on: Boolean) {
         if (on) problems.add(problem) else problems.remove(problem)
+        if (!on) messages.remove(problem)
         if (problem == Problem.SCAN_FAILED && !on) scanError = null
     }
 
@@ -194,12 +245,16 @@ class StatusTracker(
 
     private fun compute(): Status {
         val state = when {
+            failure != null -> PositioningState.FAILED
             !running -> PositioningState.STOPPED
             paused -> PositioningState.PAUSED
             !havePose -> PositioningState.WAITING_FOR_FIX
             clock.nowNs() - (lastBeaconNs ?: startedNs) >= lostAfterMs * 1_000_000 -> PositioningState.LOST
             else -> PositioningState.POSITIONING
         }
-        return Status(state, problems.toSet(), missingPermissions, missingSensors, scanError.takeIf { Problem.SCAN_FAILED in problems })
+        return Status(
+            state, problems.toSet(), missingPermissions, missingSensors, scanError.takeIf { Problem.SCAN_FAILED in problems },
+            failure, messages.filterKeys { it in problems },
+        )
     }
 }

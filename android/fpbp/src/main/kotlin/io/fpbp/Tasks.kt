@@ -4,6 +4,7 @@ import java.util.concurrent.Executors
 import java.util.concurrent.ScheduledExecutorService
 import java.util.concurrent.ThreadFactory
 import java.util.concurrent.TimeUnit
+import java.util.concurrent.atomic.AtomicBoolean
 import java.util.concurrent.atomic.AtomicLong
 import java.util.concurrent.atomic.AtomicReference
 
@@ -48,8 +49,10 @@ class FusionTask(
  * has no fusion task).
  *
  * A task that throws is not rescheduled by its executor; the first such error
- * is kept in [lastError] and both tasks stop. [close] stops the executors and
- * waits for a running task to end (call it before [FpbpEngine.close]).
+ * is kept in [lastError], both tasks stop and [onError] receives it once
+ * (the Android facade turns it into [PositioningState.FAILED]). [close] stops
+ * the executors and waits for a running task to end (call it before
+ * [FpbpEngine.close]).
  */
 class TaskScheduler @JvmOverloads constructor(
     private val engine: FpbpEngine,
@@ -60,6 +63,27 @@ class TaskScheduler @JvmOverloads constructor(
     private val gmlExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-gml"))
     private val fusionExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-fusion"))
     private val error = AtomicReference<Throwable?>(null)
+    private val reported = AtomicBoolean(false)
+
+    @Volatile private var errorListener: ((Throwable) -> Unit)? = null
+
+    /**
+     * Receives the first error a task threw, once in all, on the failing
+     * task's thread; set after an error no listener heard yet, it is called
+     * at once on the setter's thread.
+     */
+    var onError: ((Throwable) -> Unit)?
+        get() = errorListener
+        set(value) {
+            errorListener = value
+            report()
+        }
+
+    private fun report() {
+        val t = error.get() ?: return
+        val listener = errorListener ?: return
+        if (reported.compareAndSet(false, true)) listener(t)
+    }
 
     private val gmlCount = AtomicLong()
     private val fusionCount = AtomicLong()
@@ -95,6 +119,7 @@ class TaskScheduler @JvmOverloads constructor(
                 error.compareAndSet(null, t)
                 gmlExecutor.shutdown()
                 fusionExecutor.shutdown()
+                report()
                 throw t
             }
         }

@@ -11,13 +11,15 @@ class PolicyTest {
     @Test
     fun permissionsPerApiLevel() {
         val fine = RadioPermissions.ACCESS_FINE_LOCATION
+        // Android 12+ ignores a request of FINE without COARSE: both, in one request (guards issue 37)
+        val coarse = RadioPermissions.ACCESS_COARSE_LOCATION
         assertEquals(listOf(fine), RadioPermissions.required(26, setOf(Radio.BLE)))
         assertEquals(listOf(fine), RadioPermissions.required(30, setOf(Radio.BLE)))
-        assertEquals(listOf(RadioPermissions.BLUETOOTH_SCAN, fine), RadioPermissions.required(31, setOf(Radio.BLE)))
-        assertEquals(listOf(fine), RadioPermissions.required(32, setOf(Radio.WIFI)))
-        assertEquals(listOf(fine, RadioPermissions.NEARBY_WIFI_DEVICES), RadioPermissions.required(33, setOf(Radio.WIFI)))
+        assertEquals(listOf(RadioPermissions.BLUETOOTH_SCAN, fine, coarse), RadioPermissions.required(31, setOf(Radio.BLE)))
+        assertEquals(listOf(fine, coarse), RadioPermissions.required(32, setOf(Radio.WIFI)))
+        assertEquals(listOf(fine, coarse, RadioPermissions.NEARBY_WIFI_DEVICES), RadioPermissions.required(33, setOf(Radio.WIFI)))
         assertEquals(
-            listOf(RadioPermissions.BLUETOOTH_SCAN, fine, RadioPermissions.NEARBY_WIFI_DEVICES),
+            listOf(RadioPermissions.BLUETOOTH_SCAN, fine, coarse, RadioPermissions.NEARBY_WIFI_DEVICES),
             RadioPermissions.required(35, setOf(Radio.BLE, Radio.WIFI)),
         )
         assertEquals(emptyList<String>(), RadioPermissions.required(35, emptySet()))

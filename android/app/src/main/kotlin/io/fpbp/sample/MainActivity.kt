@@ -26,8 +26,8 @@ import java.util.Locale
 
 /**
  * The sample app: plain framework APIs, no AndroidX. Loads a site (the demo
- * site from assets, or the folder named by the intent extra [EXTRA_SITE_DIR]),
- * runs [FpbpPositioning] (which scans BLE, reads the sensors and runs the
+ * site from assets, or the folder named by the intent extra [EXTRA_SITE_DIR])
+ * on a background thread, runs [FpbpPositioning] (which scans BLE, reads the sensors and runs the
  * engine), draws the floor the pose is on (or the one picked with the floor
  * button), shows the status line, sets the position with a tap, records a
  * native log and shares it. The positioning survives configuration changes
@@ -47,7 +47,12 @@ class MainActivity : Activity() {
         val RADIOS = setOf(Radio.BLE)
     }
 
-    private class Retained(val positioning: FpbpPositioning, val recorder: LogRecorder?, val manualFloor: Int?)
+    private class Retained(val site: LoadedSite, val positioning: FpbpPositioning, val recorder: LogRecorder?, val manualFloor: Int?)
+
+    /** A site read from disk: its folder, site.json's text and its floor ids. */
+    private class LoadedSite(val dir: File, val json: String, val floorIds: List<Int>)
+
+    private var site: LoadedSite? = null
 
     private lateinit var planView: FloorPlanView
     private lateinit var statusView: TextView
@@ -84,34 +89,55 @@ class MainActivity : Activity() {
     override fun onCreate(savedInstanceState: Bundle?) {
         super.onCreate(savedInstanceState)
         buildUi()
-        try {
-            loadSite()
-        } catch (e: Exception) {
-            statusView.text = "cannot load the site: ${e.message}"
-            return
-        }
         @Suppress("DEPRECATION")
         val retained = lastNonConfigurationInstance as? Retained
-        val p = retained?.positioning ?: FpbpPositioning(
-            this,
-            FpbpPositioning.Site(siteJson, siteDir.path),
-            FpbpPositioning.Options(engine = ENGINE, radios = RADIOS),
-        )
+        if (retained != null) {
+            recorder = retained.recorder
+            manualFloor = retained.manualFloor
+            attach(retained.site, retained.positioning)
+            return
+        }
+        statusView.text = "loading the site"
+        // Copying the assets and reading site.json may take long on a large
+        // site: off the main thread. start() returns at once; its failure
+        // shows on the status line (state FAILED).
+        val intentDir = intent?.getStringExtra(EXTRA_SITE_DIR)
+        val siteRoot = File(filesDir, "site")
+        Thread({
+            val loaded = try {
+                loadSite(intentDir, siteRoot)
+            } catch (e: Exception) {
+                runOnUiThread { statusView.text = "cannot load the site: ${e.message}" }
+                return@Thread
+            }
+            val p = FpbpPositioning(
+                applicationContext,
+                FpbpPositioning.Site(loaded.json, loaded.dir.path),
+                FpbpPositioning.Options(engine = ENGINE, radios = RADIOS),
+            )
+            p.start()
+            runOnUiThread {
+                if (isDestroyed) {
+                    p.close()
+                } else {
+                    attach(loaded, p)
+                    requestMissingPermissions()
+                }
+            }
+        }, "fpbp-sample-load").start()
+    }
+
+    /** Shows [site] and follows [p] (on the main thread). */
+    private fun attach(site: LoadedSite, p: FpbpPositioning) {
+        this.site = site
+        siteDir = site.dir
+        siteJson = site.json
+        floorIds = site.floorIds
         positioning = p
-        recorder = retained?.recorder
-        manualFloor = retained?.manualFloor
         recordButton.text = if (recorder != null) "Stop recording" else "Record log"
         statusSub = p.addStatusListener(mainExecutorCompat()) { showStatus(it) }
         poseSub = p.addPoseListener(PoseRequest.DEFAULT, Looper.getMainLooper()) { showPose(it) }
-        if (retained == null) {
-            try {
-                p.start()
-            } catch (e: IllegalArgumentException) {
-                statusView.text = "engine did not start: ${e.message}"
-                return
-            }
-            requestMissingPermissions()
-        }
+        showFloor(manualFloor ?: lastPose?.floor ?: floorIds.first())
     }
 
     private fun mainExecutorCompat(): java.util.concurrent.Executor =
@@ -149,17 +175,12 @@ class MainActivity : Activity() {
         planView.onTap = { x, y -> onTap(x, y) }
     }
 
-    private fun loadSite() {
-        val given = intent?.getStringExtra(EXTRA_SITE_DIR)
-        siteDir = if (given != null) {
-            File(given)
-        } else {
-            File(filesDir, "site").also { copyAssetDir("demo", it) }
-        }
-        siteJson = File(siteDir, "site.json").readText()
-        val floors = JSONObject(siteJson).getJSONArray("floors")
-        floorIds = (0 until floors.length()).map { floors.getJSONObject(it).getInt("id") }
-        showFloor(floorIds.first())
+    /** Reads the site (the demo site is first copied from the assets); runs off the main thread. */
+    private fun loadSite(given: String?, demoRoot: File): LoadedSite {
+        val dir = if (given != null) File(given) else demoRoot.also { copyAssetDir("demo", it) }
+        val json = File(dir, "site.json").readText()
+        val floors = JSONObject(json).getJSONArray("floors")
+        return LoadedSite(dir, json, (0 until floors.length()).map { floors.getJSONObject(it).getInt("id") })
     }
 
     private fun showFloor(id: Int) {
@@ -175,6 +196,7 @@ class MainActivity : Activity() {
 
     /** Cycles auto -> each floor -> auto. */
     private fun nextFloor() {
+        if (floorIds.isEmpty()) return // still loading
         val m = manualFloor
         manualFloor = when {
             m == null -> floorIds.first()
@@ -219,17 +241,9 @@ class MainActivity : Activity() {
         if (requestCode == REQUEST_PERMISSIONS) positioning?.refreshPermissions()
     }
 
+    /** A tap sets the position; a refusal shows on the status line (Problem.POSITION_REFUSED). */
     private fun onTap(xM: Double, yM: Double) {
-        val p = positioning ?: return
-        try {
-            p.setPosition(xM, yM, planView.floorId)
-        } catch (e: UnsupportedOperationException) {
-            statusView.text = "engine $ENGINE cannot take a position: ${e.message}"
-        } catch (e: IllegalArgumentException) {
-            statusView.text = "position refused: ${e.message}"
-        } catch (e: IllegalStateException) {
-            statusView.text = "not started: ${e.message}"
-        }
+        positioning?.setPosition(xM, yM, planView.floorId)
     }
 
     private fun toggleRecording() {
@@ -283,7 +297,7 @@ class MainActivity : Activity() {
 
     @Deprecated("framework API without AndroidX")
     override fun onRetainNonConfigurationInstance(): Any? =
-        positioning?.let { Retained(it, recorder, manualFloor) }
+        positioning?.let { p -> site?.let { Retained(it, p, recorder, manualFloor) } }
 
     override fun onDestroy() {
         poseSub?.remove()

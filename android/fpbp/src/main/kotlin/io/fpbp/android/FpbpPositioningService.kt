@@ -12,14 +12,31 @@ import android.os.IBinder
 import io.fpbp.RadioPermissions
 import java.lang.ref.WeakReference
 
+/** What the foreground service tells the positioning it serves. */
+internal interface ForegroundClient {
+    /** The service is (or is no longer) in the foreground. */
+    fun setServiceMode(on: Boolean)
+
+    /** The service could not enter the foreground; [message] says why. */
+    fun foregroundRefused(message: String)
+}
+
 /**
  * The foreground service of [FpbpPositioning.startForegroundService]: keeps
  * the process and its positioning alive while the app is off screen, as
  * service type `location` (declared in the library's manifest with
- * FOREGROUND_SERVICE and FOREGROUND_SERVICE_LOCATION). Android 14+ refuses
- * a location foreground service without a granted location permission, so
- * the service stops itself in that case instead of crashing. Holds the
- * positioning weakly: the app owns it.
+ * FOREGROUND_SERVICE and FOREGROUND_SERVICE_LOCATION).
+ *
+ * The `startForegroundService` contract: once started that way, the service
+ * must call `startForeground` within seconds, even to stop at once, or
+ * Android ends the app (`ForegroundServiceDidNotStartInTimeException`). The
+ * facade does not start it without ACCESS_FINE_LOCATION; if the permission
+ * is missing here all the same, the service still enters the foreground
+ * with its notification, then stops, and reports the refusal. A refused
+ * `startForeground` (`ForegroundServiceStartNotAllowedException` on 12+ from
+ * the background, SecurityException on 14+ without the permission) is caught
+ * and reported the same way ([io.fpbp.Problem.FOREGROUND_SERVICE_REFUSED]).
+ * Holds the positioning weakly: the app owns it.
  */
 class FpbpPositioningService : Service() {
     companion object {
@@ -27,13 +44,21 @@ class FpbpPositioningService : Service() {
         const val CHANNEL_ID = "fpbp-positioning"
         const val NOTIFICATION_ID = 0x0F9B
 
-        @Volatile private var target: WeakReference<FpbpPositioning>? = null
+        /** The refusal reason when ACCESS_FINE_LOCATION is not granted. */
+        internal const val NO_PERMISSION =
+            "ACCESS_FINE_LOCATION not granted: Android refuses a location foreground service without it"
 
-        internal fun attach(p: FpbpPositioning) {
+        @Volatile private var target: WeakReference<ForegroundClient>? = null
+
+        internal fun attach(p: ForegroundClient) {
             target = WeakReference(p)
         }
 
-        internal fun attached(): FpbpPositioning? = target?.get()
+        internal fun detach(p: ForegroundClient) {
+            if (attached() === p) target = null
+        }
+
+        internal fun attached(): ForegroundClient? = target?.get()
 
         /** Whether a service instance is in the foreground now (tests, diagnostics). */
         @Volatile
@@ -46,27 +71,41 @@ class FpbpPositioningService : Service() {
 
     override fun onStartCommand(intent: Intent?, flags: Int, startId: Int): Int {
         val granted = checkSelfPermission(RadioPermissions.ACCESS_FINE_LOCATION) == PackageManager.PERMISSION_GRANTED
-        if (!granted) {
-            // Android 14+ throws SecurityException for a location service without it.
+        val title = intent?.getStringExtra(EXTRA_TITLE) ?: "Indoor positioning"
+        // startForeground first, whatever follows: the contract of startForegroundService
+        val refusal = try {
+            if (Build.VERSION.SDK_INT >= 29) {
+                startForeground(NOTIFICATION_ID, notification(title), ServiceInfo.FOREGROUND_SERVICE_TYPE_LOCATION)
+            } else {
+                startForeground(NOTIFICATION_ID, notification(title))
+            }
+            if (granted) null else NO_PERMISSION
+        } catch (e: IllegalStateException) {
+            // ForegroundServiceStartNotAllowedException (12+, from the background) is one
+            "${e.javaClass.simpleName}: ${e.message}"
+        } catch (e: SecurityException) {
+            // 14+: a location service without the permission
+            "${e.javaClass.simpleName}: ${e.message}"
+        }
+        if (refusal != null) {
+            attached()?.foregroundRefused(refusal)
+            removeForeground()
             stopSelf(startId)
             return START_NOT_STICKY
-        }
-        val title = intent?.getStringExtra(EXTRA_TITLE) ?: "Indoor positioning"
-        val notification = notification(title)
-        if (Build.VERSION.SDK_INT >= 29) {
-            startForeground(NOTIFICATION_ID, notification, ServiceInfo.FOREGROUND_SERVICE_TYPE_LOCATION)
-        } else {
-            startForeground(NOTIFICATION_ID, notification)
         }
         isForeground = true
         attached()?.setServiceMode(true)
         return START_NOT_STICKY
     }
 
+    private fun removeForeground() {
+        if (Build.VERSION.SDK_INT >= 24) stopForeground(STOP_FOREGROUND_REMOVE) else @Suppress("DEPRECATION") stopForeground(true)
+    }
+
     override fun onDestroy() {
         attached()?.setServiceMode(false)
         isForeground = false
-        if (Build.VERSION.SDK_INT >= 24) stopForeground(STOP_FOREGROUND_REMOVE) else @Suppress("DEPRECATION") stopForeground(true)
+        removeForeground()
         super.onDestroy()
     }
 

@@ -29,7 +29,7 @@ class BleSourceRoboTest : OpenSitePositioningTest() {
 
     @Before
     fun setUp() {
-        shadowOf(app).grantPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION)
+        shadowOf(app).grantPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION, Manifest.permission.ACCESS_COARSE_LOCATION)
         shadowOf(bluetooth.adapter).setEnabled(true)
     }
 
@@ -92,7 +92,7 @@ class BleSourceRoboTest : OpenSitePositioningTest() {
     fun stopReleasesTheScanner() {
         val p = start()
         assertTrue(RoboSupport.idleUntil { scanner.scanCallbacks.isNotEmpty() })
-        p.stop()
+        p.stop().get(30, java.util.concurrent.TimeUnit.SECONDS)
         assertTrue("scan still registered after stop", RoboSupport.idleUntil { scanner.scanCallbacks.isEmpty() })
         assertEquals(PositioningState.STOPPED, p.status.state)
     }

@@ -9,7 +9,6 @@ import io.fpbp.android.FpbpPositioningService
 import org.junit.Assert.assertEquals
 import org.junit.Assert.assertFalse
 import org.junit.Assert.assertNotNull
-import org.junit.Assert.assertNull
 import org.junit.Assert.assertTrue
 import org.junit.Test
 import org.junit.runner.RunWith
@@ -28,7 +27,7 @@ class ForegroundServiceRoboTest {
     fun startsInTheForegroundAsLocationAndStops() {
         shadowOf(app).grantPermissions(Manifest.permission.ACCESS_FINE_LOCATION)
         val p = FpbpPositioning(app, RoboSupport.openSite)
-        p.start()
+        p.start().get(30, java.util.concurrent.TimeUnit.SECONDS)
         p.startForegroundService("walking")
         val started = shadowOf(app).nextStartedService
         assertNotNull("startForegroundService sent no intent", started)
@@ -54,7 +53,9 @@ class ForegroundServiceRoboTest {
         shadowOf(app).denyPermissions(Manifest.permission.ACCESS_FINE_LOCATION)
         val controller = Robolectric.buildService(FpbpPositioningService::class.java, Intent()).create().startCommand(0, 7)
         val shadow = shadowOf(controller.get())
-        assertNull(shadow.lastForegroundNotification)
+        // startForeground first (the startForegroundService contract), then stop
+        assertEquals(FpbpPositioningService.NOTIFICATION_ID, shadow.lastForegroundNotificationId)
+        assertTrue(shadow.isForegroundStopped)
         assertTrue(shadow.isStoppedBySelf)
         assertFalse(FpbpPositioningService.isForeground)
     }

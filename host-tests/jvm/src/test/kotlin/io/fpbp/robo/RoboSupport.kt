@@ -31,12 +31,12 @@ abstract class OpenSitePositioningTest {
 
     @org.junit.After
     fun closePositioning() {
-        positioning?.close()
+        positioning?.closeAsync()?.get(30, TimeUnit.SECONDS)
     }
 
     protected fun start(options: FpbpPositioning.Options = FpbpPositioning.Options()): FpbpPositioning =
         FpbpPositioning(app, RoboSupport.openSite, options).also {
             positioning = it
-            it.start()
+            it.start().get(30, TimeUnit.SECONDS)
         }
 }

@@ -52,9 +52,11 @@ class SampleActivityRoboTest {
 
     @Test
     fun showsTheFloorOfThePoseAndSurvivesARotation() {
-        shadowOf(app).grantPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION)
+        shadowOf(app).grantPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION, Manifest.permission.ACCESS_COARSE_LOCATION)
         val controller = launch(twoFloorSite())
         val activity = controller.get()
+        // the site loads and positioning starts off the main thread
+        assertTrue(activity.statusText, RoboSupport.idleUntil { activity.positioning?.isRunning == true })
         val p = activity.positioning
         assertNotNull("the activity did not start positioning: ${activity.statusText}", p)
         assertEquals(0, activity.shownFloor)
@@ -77,14 +79,14 @@ class SampleActivityRoboTest {
         // Finishing the activity stops positioning and releases the sensors.
         controller.pause().stop().destroy()
         val sensors = shadowOf(app.getSystemService(Context.SENSOR_SERVICE) as SensorManager)
-        assertTrue(sensors.listeners.isEmpty())
+        // close() returns at once; the control thread releases everything
+        assertTrue(RoboSupport.idleUntil { !p.isRunning && sensors.listeners.isEmpty() })
         assertEquals(0, p.poseListenerCount)
-        assertTrue(!p.isRunning)
     }
 
     @Test
     fun aDeniedPermissionIsExplainedOnTheStatusLine() {
-        shadowOf(app).denyPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION)
+        shadowOf(app).denyPermissions(Manifest.permission.BLUETOOTH_SCAN, Manifest.permission.ACCESS_FINE_LOCATION, Manifest.permission.ACCESS_COARSE_LOCATION)
         shadowOf(app.getSystemService(Context.SENSOR_SERVICE) as SensorManager)
             .addSensor(org.robolectric.shadows.ShadowSensor.newInstance(Sensor.TYPE_ACCELEROMETER))
         val controller = launch(twoFloorSite())

@@ -16,6 +16,7 @@ import org.robolectric.annotation.Config
 import org.robolectric.shadows.SensorEventBuilder
 import org.robolectric.shadows.ShadowSensor
 import org.robolectric.shadows.ShadowSensorManager
+import java.util.concurrent.TimeUnit
 
 /** The library's sensor source on the Android framework, feeding the real libfpbp. */
 @RunWith(FpbpRobolectricRunner::class)
@@ -61,7 +62,7 @@ class SensorSourceRoboTest : OpenSitePositioningTest() {
     fun stopUnregistersEverySensorListener() {
         val p = start()
         assertTrue(RoboSupport.idleUntil { sensors.listeners.isNotEmpty() })
-        p.stop()
+        p.stop().get(30, TimeUnit.SECONDS)
         assertTrue("sensor listeners left after stop: ${sensors.listeners}", sensors.listeners.isEmpty())
         assertFalse(p.isRunning)
     }
@@ -70,7 +71,7 @@ class SensorSourceRoboTest : OpenSitePositioningTest() {
     fun pauseReleasesTheSensorsAndResumeTakesThemBack() {
         val p = start()
         assertTrue(RoboSupport.idleUntil { sensors.listeners.isNotEmpty() })
-        p.pause()
+        p.pause().get(30, TimeUnit.SECONDS)
         assertTrue(sensors.listeners.isEmpty())
         assertTrue(p.isRunning)
         p.resume()

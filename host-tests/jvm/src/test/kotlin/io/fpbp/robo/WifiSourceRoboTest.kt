@@ -28,7 +28,7 @@ class WifiSourceRoboTest : OpenSitePositioningTest() {
 
     @Test
     fun scanResultsReachTheEngine() {
-        shadowOf(app).grantPermissions(Manifest.permission.ACCESS_FINE_LOCATION, Manifest.permission.NEARBY_WIFI_DEVICES)
+        shadowOf(app).grantPermissions(Manifest.permission.ACCESS_FINE_LOCATION, Manifest.permission.ACCESS_COARSE_LOCATION, Manifest.permission.NEARBY_WIFI_DEVICES)
         val wifi = app.getSystemService(Context.WIFI_SERVICE) as WifiManager
         shadowOf(wifi).setWifiState(WifiManager.WIFI_STATE_ENABLED)
         shadowOf(wifi).setScanResults(

@@ -56,6 +56,11 @@ pub struct IntegrityConfig {
     pub allow_per_walked: f64,
     /// ... plus this many times the cloud's RMS spread before the update.
     pub allow_spread: f64,
+    /// The trust is (allowed / pull)^`trust_exponent` once the pull
+    /// exceeds the allowed correction: 1 holds the radio's pull at the
+    /// budget (a wrong radio still drags the cloud at the budget's rate),
+    /// above 1 the radio loses more of its say the further it asks to go.
+    pub trust_exponent: f64,
     /// The trust never falls below this.
     pub min_trust: f64,
     /// Re-seeding from the radio (likelihood surface, anchors) only while
@@ -75,6 +80,7 @@ impl Default for IntegrityConfig {
             allow_m: 3.0,
             allow_per_walked: 0.1,
             allow_spread: 1.0,
+            trust_exponent: 1.0,
             min_trust: 0.05,
             reseed_min_trust: 0.5,
             accuracy_share: 1.0,
@@ -90,6 +96,7 @@ impl IntegrityConfig {
             ("allow_m", self.allow_m, 0.0, 1000.0),
             ("allow_per_walked", self.allow_per_walked, 0.0, 10.0),
             ("allow_spread", self.allow_spread, 0.0, 100.0),
+            ("trust_exponent", self.trust_exponent, 0.1, 10.0),
             ("min_trust", self.min_trust, 0.001, 1.0),
             ("reseed_min_trust", self.reseed_min_trust, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 100.0),
@@ -215,7 +222,9 @@ impl RadioIntegrity {
         // the first entry's walk happened before the window's first pull
         let allowed = self.allowed_m(cfg, spread_m);
         self.trust = if self.pull_m > allowed {
-            (allowed / self.pull_m).clamp(cfg.min_trust, 1.0)
+            (allowed / self.pull_m)
+                .powf(cfg.trust_exponent)
+                .clamp(cfg.min_trust, 1.0)
         } else {
             1.0
         };

@@ -480,7 +480,7 @@ impl TcpfEngine {
 
     /// The path-loss model's parameters of [`TcpfEngine::new`]: the
     /// likelihood's spreads and ranges, the phone's height.
-    fn path_loss_params(config: &EngineConfig) -> PathLossParams {
+    pub fn path_loss_params(config: &EngineConfig) -> PathLossParams {
         let l = &config.tcpf.likelihood;
         PathLossParams {
             ble_sd_db: l.ble_sd_db,

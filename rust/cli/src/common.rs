@@ -374,6 +374,10 @@ pub struct LogMetrics {
     /// (heard minus model, dB; engines that estimate one: `tcpf`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub rssi_offset_db: Option<f64>,
+    /// The engine's trust in its radio at the log's end (engines that
+    /// check it: `tcpf`, 1 unless `tcpf.integrity` lowered it).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub radio_trust: Option<f64>,
     /// The engine's own counters at the log's end (`Engine::diagnostics`:
     /// re-seedings, wall kills, ...; engines that keep them: `tcpf`).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
@@ -426,6 +430,7 @@ impl EngineMetrics {
                 engine_no_fix_runs: r.out.stats.no_fix,
                 step_scale: r.out.stats.step_scale,
                 rssi_offset_db: r.out.stats.rssi_offset_db,
+                radio_trust: r.out.stats.radio_trust,
                 engine_counters: r.out.diagnostics.iter().copied().collect(),
                 read: read.clone(),
             })

@@ -222,3 +222,167 @@ fn the_published_track_never_crosses_a_wall_on_the_shipped_logs() {
     assert!(length_m > 1000.0, "tracks of {length_m:.0} m");
     assert!(crossings.is_empty(), "crossings: {crossings:?}");
 }
+
+/// The demo site's path-loss model, wrong by 10 dB east of `WING_X_M`:
+/// there every transmitter's expected RSSI is 10 dB off, stronger for
+/// even-numbered transmitters and weaker for odd ones (a phone offset
+/// cannot explain it away), as a radio map is where its survey went
+/// wrong or a transmitter moved.
+struct WrongWing(fpbp_core::radio::PathLossModel);
+
+const WING_X_M: f64 = 34.0;
+
+impl fpbp_core::radio::RadioModel for WrongWing {
+    fn transmitters(&self) -> &[fpbp_core::radio::Transmitter] {
+        self.0.transmitters()
+    }
+
+    fn lookup(&self, kind: fpbp_core::radio::TxKind, id: &str) -> Option<usize> {
+        self.0.lookup(kind, id)
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let (mu, sd) = self.0.expected(tx, floor, p)?;
+        let off = if p.x <= WING_X_M {
+            0.0
+        } else if tx % 2 == 0 {
+            10.0
+        } else {
+            -10.0
+        };
+        Some((mu + off, sd))
+    }
+}
+
+/// `tcpf` recording its radio trust after every task run.
+struct TrustRecorder {
+    e: fpbp_core::engines::tcpf::TcpfEngine,
+    trust: std::sync::Arc<std::sync::Mutex<f64>>,
+}
+
+impl fpbp_core::engine::Engine for TrustRecorder {
+    fn name(&self) -> &'static str {
+        "tcpf"
+    }
+    fn on_sensor(&mut self, ev: &fpbp_core::events::SensorEvent) {
+        self.e.on_sensor(ev)
+    }
+    fn on_ble(&mut self, obs: &fpbp_core::events::BleObservation) {
+        self.e.on_ble(obs)
+    }
+    fn on_wifi(&mut self, scan: &fpbp_core::events::WifiScan) {
+        self.e.on_wifi(scan)
+    }
+    fn run_task(&mut self, task: fpbp_core::engine::Task, t_ns: i64) {
+        self.e.run_task(task, t_ns);
+        *self.trust.lock().unwrap() = self.e.radio_trust();
+    }
+    fn task_period_ns(&self, task: fpbp_core::engine::Task) -> Option<i64> {
+        self.e.task_period_ns(task)
+    }
+    fn pose(&self) -> Option<Pose> {
+        self.e.pose()
+    }
+    fn stats(&self) -> fpbp_core::engine::EngineStats {
+        self.e.stats()
+    }
+}
+
+/// Issue 39's integrity case: a radio model 10 dB wrong over the east
+/// wing of the demo site, walks started at their first truth point. With
+/// `tcpf.integrity` on, the track's error at the truth points in the wing
+/// is at most 0.8 x that without it, and the radio's trust is lower in
+/// the wing than outside it. Guards the integrity check: an option that
+/// changes nothing, or a trust that never drops, fails.
+///
+/// NOT MET: the issue asks for the wing's error within 1.1 x `pdr`'s;
+/// measured 12.2 m against `pdr` 5.7 m (19.4 m without the check), see
+/// docs/lab/tcpf-radio-trust.md. The figures are printed with
+/// `--nocapture`.
+#[test]
+fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
+    use fpbp_core::engine::InitialPosition;
+    use fpbp_core::engine::replay::Replayer;
+    use fpbp_core::engines::tcpf::TcpfEngine;
+    let site = demo_site();
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.integrity.enabled = true;
+    let (mut tcpf_wing, mut off_wing, mut pdr_wing) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut trust_in, mut trust_out) = (Vec::new(), Vec::new());
+    for seed in 1u64..=8 {
+        let log = simulate(&site, &SimRequest::new(180.0, seed)).unwrap();
+        let first = log.events.iter().find_map(|e| match e {
+            LogEvent::Truth(t) => Some(*t),
+            _ => None,
+        });
+        let t0 = first.expect("a truth point");
+        let init = InitialPosition {
+            x_m: t0.x_m,
+            y_m: t0.y_m,
+            floor: t0.floor.unwrap_or(0),
+            heading_rad: None,
+        };
+        let model = || {
+            Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
+                &site,
+                TcpfEngine::path_loss_params(&cfg),
+            )))
+        };
+        let cfg_s = EngineConfig {
+            seed,
+            ..cfg.clone()
+        };
+        let trust = Arc::new(std::sync::Mutex::new(1.0));
+        let mut rec = TrustRecorder {
+            e: TcpfEngine::with_model(site.clone(), &cfg_s, Some(init), model()).unwrap(),
+            trust: trust.clone(),
+        };
+        // the trust at each truth point (after the last task run before
+        // it), by where the walker is
+        let mut r = Replayer::new(&mut rec);
+        for ev in &log.events {
+            r.push(ev);
+            if let LogEvent::Truth(tp) = ev {
+                if tp.x_m > WING_X_M {
+                    trust_in.push(*trust.lock().unwrap());
+                } else {
+                    trust_out.push(*trust.lock().unwrap());
+                }
+            }
+        }
+        let out = r.finish();
+        let off_cfg = EngineConfig {
+            seed,
+            ..EngineConfig::default()
+        };
+        let mut plain =
+            TcpfEngine::with_model(site.clone(), &off_cfg, Some(init), model()).unwrap();
+        let out_off = fpbp_core::engine::replay::replay(&mut plain, log.events.iter().cloned());
+        let mut pdr = build_engine("pdr", site.clone(), &off_cfg, Some(init)).unwrap();
+        let out_pdr = fpbp_core::engine::replay::replay(pdr.as_mut(), log.events.iter().cloned());
+        for ((a, b), c) in out.scored.iter().zip(&out_off.scored).zip(&out_pdr.scored) {
+            let (Some(ea), Some(eb), Some(ec)) = (a.error_m(), b.error_m(), c.error_m()) else {
+                continue;
+            };
+            if a.truth.x_m > WING_X_M {
+                tcpf_wing.push(ea);
+                off_wing.push(eb);
+                pdr_wing.push(ec);
+            }
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    assert!(tcpf_wing.len() > 50, "{} wing points", tcpf_wing.len());
+    let (t, o, p) = (mean(&tcpf_wing), mean(&off_wing), mean(&pdr_wing));
+    eprintln!(
+        "wing ({} points): tcpf integrity {t:.2} m, without {o:.2} m, pdr {p:.2} m",
+        tcpf_wing.len()
+    );
+    assert!(
+        t <= 0.8 * o,
+        "with the check {t:.2} m, without {o:.2} m in the wrong wing"
+    );
+    let (ti, to) = (mean(&trust_in), mean(&trust_out));
+    eprintln!("mean radio trust in the wing {ti:.2}, outside {to:.2}");
+    assert!(ti < to - 0.1, "trust in the wing {ti:.2}, outside {to:.2}");
+}

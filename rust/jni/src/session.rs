@@ -366,6 +366,7 @@ impl Snapshot {
             // null for engines that estimate none
             "rssi_offset_db": stats.rssi_offset_db,
             "step_scale": stats.step_scale,
+            "radio_trust": stats.radio_trust,
         })
         .to_string()
     }
@@ -824,10 +825,14 @@ mod tests {
         assert_eq!(Some(offset), core.rssi_offset_db);
         assert!(offset < -4.0, "9 dB weaker, estimated {offset} dB");
         assert_eq!(stats["step_scale"].as_f64(), core.step_scale);
+        // the radio's trust as the engine reports it (1: integrity off)
+        assert_eq!(stats["radio_trust"].as_f64(), core.radio_trust);
+        assert_eq!(core.radio_trust, Some(1.0));
         let other = Session::from_engine(Box::new(Recorder::default()));
         let stats: serde_json::Value =
             serde_json::from_str(&other.snapshot().stats_json()).expect("stats JSON");
         assert!(stats["rssi_offset_db"].is_null() && stats["step_scale"].is_null());
+        assert!(stats["radio_trust"].is_null());
     }
 
     /// `start`'s data JSON is told apart by its `format`: a radio map goes

@@ -140,6 +140,11 @@ pub struct EngineStats {
     /// online (`tcpf`; 1 when its `online_step` is off).
     #[serde(default)]
     pub step_scale: Option<f64>,
+    /// How far the engine trusts its radio in [0, 1] (`tcpf`: 1 unless
+    /// its `integrity` check found the radio pulling the track beyond what
+    /// the walk allows).
+    #[serde(default)]
+    pub radio_trust: Option<f64>,
 }
 
 impl EngineStats {

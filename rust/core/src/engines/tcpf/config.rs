@@ -9,6 +9,7 @@ use crate::radio::LikelihoodConfig;
 use crate::radio::offset::OffsetConfig;
 use crate::radio::reference_scans::ScanMetric;
 
+use super::integrity::IntegrityConfig;
 use super::step_scale::OnlineStepConfig;
 
 /// Settings of engine `tcpf`.
@@ -124,6 +125,8 @@ pub struct TcpfConfig {
     pub magnetic: MagneticConfig,
     /// The user's step length learned online (module `step_scale`).
     pub online_step: OnlineStepConfig,
+    /// The radio checked against the walk (module `integrity`).
+    pub integrity: IntegrityConfig,
 }
 
 /// The magnetic likelihood: with a radio map that carries the survey's
@@ -379,6 +382,7 @@ impl Default for TcpfConfig {
             anchors: AnchorConfig::default(),
             magnetic: MagneticConfig::default(),
             online_step: OnlineStepConfig::default(),
+            integrity: IntegrityConfig::default(),
         }
     }
 }
@@ -514,6 +518,7 @@ impl TcpfConfig {
         self.anchors.validate()?;
         self.magnetic.validate()?;
         self.online_step.validate()?;
+        self.integrity.validate()?;
         self.offset.validate()
     }
 

@@ -32,12 +32,14 @@
 //! cloud until the walk tells them apart.
 
 pub mod config;
+pub mod integrity;
 pub mod step_scale;
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
 pub use config::{AnchorConfig, TcpfConfig};
+pub use integrity::{IntegrityConfig, RadioIntegrity};
 pub use step_scale::{OnlineStep, OnlineStepConfig};
 
 use crate::Result;
@@ -109,12 +111,19 @@ pub struct TcpfCounts {
     pub magnetic_updates: u64,
     /// Windows that fed the online step-length scale (`online_step`).
     pub step_windows: u64,
+    /// Radio updates made with the radio's trust below 1 and below 0.5
+    /// (`integrity`).
+    pub trust_reduced: u64,
+    pub trust_low: u64,
+    /// Re-seedings refused: the surface lay farther from the cloud than
+    /// the walk allows (`integrity`).
+    pub reseed_untrusted: u64,
 }
 
 impl TcpfCounts {
     /// Every count with its field's name (the destructuring lists every
     /// field, so a new count does not compile until it is named here).
-    pub fn named(&self) -> [(&'static str, u64); 16] {
+    pub fn named(&self) -> [(&'static str, u64); 19] {
         let TcpfCounts {
             global_starts,
             radio_updates,
@@ -132,6 +141,9 @@ impl TcpfCounts {
             anchors_dropped_far,
             magnetic_updates,
             step_windows,
+            trust_reduced,
+            trust_low,
+            reseed_untrusted,
         } = *self;
         [
             ("global_starts", global_starts),
@@ -150,6 +162,9 @@ impl TcpfCounts {
             ("anchors_dropped_far", anchors_dropped_far),
             ("magnetic_updates", magnetic_updates),
             ("step_windows", step_windows),
+            ("trust_reduced", trust_reduced),
+            ("trust_low", trust_low),
+            ("reseed_untrusted", reseed_untrusted),
         ]
     }
 }
@@ -378,6 +393,8 @@ pub struct TcpfEngine {
     offset: PhoneOffset,
     /// The user's step length learned online (`online_step`).
     online_step: OnlineStep,
+    /// The radio's trust from its pulls against the walk (`integrity`).
+    integrity: RadioIntegrity,
     /// The counters that say the cloud moved other than by its steps and
     /// the radio, at the last fusion run (the online step scale skips
     /// stretches across such a move).
@@ -463,7 +480,7 @@ impl TcpfEngine {
 
     /// The path-loss model's parameters of [`TcpfEngine::new`]: the
     /// likelihood's spreads and ranges, the phone's height.
-    fn path_loss_params(config: &EngineConfig) -> PathLossParams {
+    pub fn path_loss_params(config: &EngineConfig) -> PathLossParams {
         let l = &config.tcpf.likelihood;
         PathLossParams {
             ble_sd_db: l.ble_sd_db,
@@ -521,6 +538,7 @@ impl TcpfEngine {
             wifi_active: false,
             offset: PhoneOffset::new(&cfg.offset),
             online_step: OnlineStep::new(&cfg.online_step),
+            integrity: RadioIntegrity::default(),
             jump_key: 0,
             monitor: LikelihoodMonitor::default(),
             floor: start_floor,
@@ -583,6 +601,13 @@ impl TcpfEngine {
         (self.offset.mean_db(), self.offset.sd_db())
     }
 
+    /// The radio's trust in [`IntegrityConfig::min_trust`, 1]: 1 unless
+    /// `integrity` found the radio pulling the cloud beyond what the walk
+    /// allows.
+    pub fn radio_trust(&self) -> f64 {
+        self.integrity.trust()
+    }
+
     /// The online step-length scale every PDR step is multiplied by
     /// (1 with `online_step` off).
     pub fn step_scale(&self) -> f64 {
@@ -613,6 +638,7 @@ impl TcpfEngine {
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
         self.told_start = true;
+        self.integrity.restart(&self.cfg.integrity, true);
         self.online_step.drop_window();
         self.draw_offsets_from_belief();
         self.monitor.reset();
@@ -879,6 +905,7 @@ impl TcpfEngine {
         self.hold_runs = 0;
         self.counts.global_starts += 1;
         self.told_start = false;
+        self.integrity.restart(&self.cfg.integrity, false);
         self.last_radio_t_ns = Some(t_ns);
         true
     }
@@ -894,6 +921,7 @@ impl TcpfEngine {
         }
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
+        self.integrity.on_step(length_m);
         if self.cfg.anchors.query_period_s > 0.0 {
             // only reused anchors move by it
             self.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
@@ -941,8 +969,12 @@ impl TcpfEngine {
             self.cfg.converged_spread_lo_m,
             self.cfg.converged_spread_hi_m,
         );
-        let g = ((self.pf.spread_m() - lo) / (hi - lo)).clamp(0.0, 1.0);
-        let alpha = lc.alpha(meas.len()) * (c + (1.0 - c) * g);
+        let spread_before = self.pf.spread_m();
+        let mean_before = self.pf.mean();
+        let g = ((spread_before - lo) / (hi - lo)).clamp(0.0, 1.0);
+        // the radio's trust tempers its weights (1 unless `integrity`)
+        let trust = self.integrity.trust();
+        let alpha = lc.alpha(meas.len()) * (c + (1.0 - c) * g) * trust;
         let m = meas.len().max(1) as f64;
         let missed = self.near_missing(missing, o);
         let alpha0 = lc.alpha(meas.len());
@@ -1006,8 +1038,9 @@ impl TcpfEngine {
             support = anchor_support(anchors, floor, ac.sigma_m, mix, self.pf.weights());
             if ac.weight > 0.0 {
                 let norm = (ac.floor + 1.0).ln();
+                let weight = ac.weight * trust;
                 for (u, a) in log_l.iter_mut().zip(mix.iter()) {
-                    *u += ac.weight * (fast_ln(ac.floor + a) - norm);
+                    *u += weight * (fast_ln(ac.floor + a) - norm);
                 }
             }
         }
@@ -1074,8 +1107,11 @@ impl TcpfEngine {
         } else {
             self.cfg.recovery_radio_alone_margin
         };
+        // a radio the walk disagrees with re-seeds nothing (`integrity`)
+        let trusted = trust >= self.cfg.integrity.reseed_min_trust;
         if (reseed > 0.0 || check)
             && !far
+            && trusted
             && self
                 .surface_gap_bound(floor, meas, cloud_ll)
                 .is_none_or(|b| b > needed)
@@ -1088,19 +1124,55 @@ impl TcpfEngine {
             }
         {
             let reseed = fraction;
-            self.pf.resample();
-            let site = Arc::clone(&self.site);
-            let map = site.floor(floor);
-            let n = self
-                .pf
-                .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
-                    map.is_none_or(|m| m.is_walkable(q))
+            // the re-seeding would move the cloud toward the surface's
+            // mean: beyond what the walk allows, the radio is not
+            // followed there (`integrity`), and the refused pull counts
+            let wsum: f64 = surf.w.iter().sum();
+            let toward = surf
+                .cells
+                .iter()
+                .zip(&surf.w)
+                .fold(Vec2::zeros(), |s, (c, w)| {
+                    s + c * (*w / wsum.max(f64::MIN_POSITIVE))
                 });
-            self.draw_offsets_from_cells(&surf);
-            self.counts.reseeded += n as u64;
+            let cloud_at = self.pf.mean().unwrap_or(toward);
+            if self.integrity.is_active()
+                && (toward - cloud_at).norm()
+                    > self.integrity.allowed_m(&self.cfg.integrity, spread_before)
+            {
+                self.integrity.refuse((toward - cloud_at) * reseed);
+                self.counts.reseed_untrusted += 1;
+            } else {
+                self.pf.resample();
+                let site = Arc::clone(&self.site);
+                let map = site.floor(floor);
+                let n =
+                    self.pf
+                        .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
+                            map.is_none_or(|m| m.is_walkable(q))
+                        });
+                self.draw_offsets_from_cells(&surf);
+                self.counts.reseeded += n as u64;
+            }
         }
-        self.anchor_reseed(anchors, floor, support);
+        if trusted {
+            self.anchor_reseed(anchors, floor, support);
+        }
+        if let (Some(a), Some(b)) = (mean_before, self.pf.mean()) {
+            self.integrity
+                .on_radio(&self.cfg.integrity, t_ns, b - a, spread_before);
+        }
+        if trust < 1.0 {
+            self.counts.trust_reduced += 1;
+        }
+        if trust < 0.5 {
+            self.counts.trust_low += 1;
+        }
         self.update_floor(t_ns, meas, anchors);
+        if self.floor != floor {
+            // pulls on another floor's cloud do not add up with these
+            self.integrity.restart(&self.cfg.integrity, self.told_start);
+        }
     }
 
     /// Weighs the particles by the magnetic map at each against the
@@ -1516,6 +1588,19 @@ impl TcpfEngine {
         }
     }
 
+    /// The published radius `r` widened, in quadrature, by
+    /// `integrity.accuracy_share` of the pull the engine did not follow
+    /// (the radio and the walk disagree: either may be wrong).
+    fn accuracy_with_integrity(&self, r: f64) -> f64 {
+        let share = self.cfg.integrity.accuracy_share;
+        let u = self.integrity.unfollowed_m();
+        if share > 0.0 && u > 0.0 {
+            r.hypot(share * u)
+        } else {
+            r
+        }
+    }
+
     fn publish(&mut self, t_ns: i64) {
         let Some(pos) = self.estimate() else { return };
         if let Some(prev) = self.published {
@@ -1545,7 +1630,7 @@ impl TcpfEngine {
             y_m: pos.y,
             floor: self.floor,
             heading_rad: self.heading_rad,
-            accuracy_m: self.accuracy_with_survey(cloud_m),
+            accuracy_m: self.accuracy_with_integrity(self.accuracy_with_survey(cloud_m)),
             floor_prob,
             source,
         });
@@ -1809,6 +1894,7 @@ impl Engine for TcpfEngine {
         let mut s = self.stats.clone();
         s.rssi_offset_db = Some(self.offset.mean_db());
         s.step_scale = Some(self.online_step.scale());
+        s.radio_trust = Some(self.integrity.trust());
         s
     }
 }

@@ -20,6 +20,11 @@ package io.fpbp
  * @property stepScale the factor the engine multiplies the PDR's step
  *   lengths by (1 while its online step length is off); null for engines
  *   without one.
+ * @property radioTrust how far the engine trusts its radio, in [0, 1]: 1
+ *   unless its integrity check (`tcpf.integrity`, off by default) found the
+ *   radio pulling the track beyond what the walk allows (then the accuracy
+ *   radius is widened too); null for engines without one, or a library
+ *   older than the field.
  */
 data class EngineStats(
     val engine: String,
@@ -34,6 +39,7 @@ data class EngineStats(
     val noFix: Long,
     val rssiOffsetDb: Double?,
     val stepScale: Double?,
+    val radioTrust: Double? = null,
 ) {
     companion object {
         /** Longest stats JSON [parse] reads: the bridge's is ~400 bytes. */
@@ -79,6 +85,7 @@ data class EngineStats(
                 noFix = count("no_fix"),
                 rssiOffsetDb = optional("rssi_offset_db"),
                 stepScale = optional("step_scale"),
+                radioTrust = optional("radio_trust"),
             )
         }
     }

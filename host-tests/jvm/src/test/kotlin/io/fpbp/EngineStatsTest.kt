@@ -24,6 +24,10 @@ class EngineStatsTest {
         val newer = EngineStats.parse("{\"engine\":\"a\\\"b\\u00e9\",$counts,\"future\":true,\"later\":\"v\"}")
         assertEquals("a\"b\u00e9", newer.engine)
         assertEquals(1e3, EngineStats.parse("{\"engine\":\"x\",$counts,\"step_scale\":1e3}").stepScale)
+        // the radio's trust: read when given, null when null or absent (an older bridge)
+        assertEquals(0.25, EngineStats.parse("{\"engine\":\"tcpf\",$counts,\"radio_trust\":0.25}").radioTrust)
+        assertNull(EngineStats.parse("{\"engine\":\"fpbp\",$counts,\"radio_trust\":null}").radioTrust)
+        assertNull(s.radioTrust)
     }
 
     @Test
@@ -33,6 +37,7 @@ class EngineStatsTest {
         assertTrue(message("{\"engine\":\"tcpf\",${counts.replace("\"steps\":7", "\"steps\":-7")}}").contains("\"steps\""))
         assertTrue(message("{\"engine\":\"tcpf\",${counts.replace("\"steps\":7", "\"steps\":7.5")}}").contains("\"steps\""))
         assertTrue(message("{\"engine\":\"tcpf\",$counts,\"rssi_offset_db\":\"x\"}").contains("\"rssi_offset_db\""))
+        assertTrue(message("{\"engine\":\"tcpf\",$counts,\"radio_trust\":true}").contains("\"radio_trust\""))
         assertTrue(message("{\"engine\":3,$counts}").contains("\"engine\""))
         assertTrue(message("{\"engine\":\"tcpf\",$counts,\"x\":{}}").contains("nested"))
         for (bad in listOf("", "[]", "{", "{\"engine\":\"t", "{\"engine\":\"tcpf\"} x", "{\"a\":1,}", "{\"a\":nul}", "{\"a\":1e999}")) {
@@ -52,6 +57,8 @@ class EngineStatsTest {
                 assertEquals(1, s.bleObservations)
                 assertTrue(s.bridgeRejected >= 1, "the unknown sensor type is counted: $s")
                 assertEquals(name == "tcpf", s.rssiOffsetDb != null, "offset for $name: $s")
+                // tcpf reports its radio trust (1: integrity is off by default), the others none
+                assertEquals(if (name == "tcpf") 1.0 else null, s.radioTrust, "radio trust for $name: $s")
             }
         }
     }

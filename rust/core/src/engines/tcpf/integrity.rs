@@ -1,0 +1,330 @@
+//! Integrity of the radio against the walk (`tcpf.integrity`; docs/tcpf.md
+//! "Radio integrity").
+//!
+//! A radio map (or the path-loss model) can be wrong over a whole area: a
+//! wing the survey never walked, a transmitter moved, a model biased by
+//! the walls. There the radio pulls a correct cloud away within seconds,
+//! and each update's pull is small beside the cloud, so no single update
+//! looks wrong. What gives it away is the sum: the PDR's error grows with
+//! the distance walked (a heading bias, a step length a few per cent off),
+//! so over a window of the last seconds the corrections the radio makes to
+//! the PDR-propagated cloud may add up to a few metres plus a share of the
+//! distance walked, plus the cloud's own spread (a broad cloud is allowed
+//! to be narrowed down anywhere inside it). Corrections that add up to
+//! more than that, in one direction, say that the radio and the steps
+//! disagree beyond what either's spread explains.
+//!
+//! Each radio update's pull is the shift of the cloud's weighted mean that
+//! its weights (and any re-seeding) made. The window sums the pulls each
+//! divided by the trust they were made with (a pull made at trust t is
+//! about t times the pull at full trust, for pulls small beside the
+//! cloud), so the sum estimates what the radio would have done at full
+//! trust and the trust does not oscillate. The trust is then the allowed
+//! correction over that sum, clamped to [`min_trust`, 1]: a radio that
+//! keeps to the budget keeps full trust; one that asks for three times the
+//! budget gets a third, which holds its actual pull near the budget. The
+//! engine multiplies the radio's tempering and the anchors' weight by the
+//! trust, re-seeds from the radio only while the trust is at least
+//! `reseed_min_trust`, and widens the accuracy radius by the part of the
+//! pull it did not follow.
+//!
+//! [`min_trust`]: IntegrityConfig::min_trust
+
+use std::collections::VecDeque;
+
+use serde::{Deserialize, Serialize};
+
+use crate::Result;
+use crate::Vec2;
+
+/// Settings of the radio's integrity check (docs/parameters.md "tcpf").
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IntegrityConfig {
+    /// Whether the radio's trust is checked (false: trust stays 1).
+    pub enabled: bool,
+    /// Also after a global start (the cloud placed by the radio itself);
+    /// false: only after a told start (`InitialPosition`, `set_position`).
+    pub after_global_start: bool,
+    /// The sliding window the pulls are summed over, s.
+    pub window_s: f64,
+    /// The correction the steps allow over the window: this many metres
+    /// ...
+    pub allow_m: f64,
+    /// ... plus this share of the distance the steps walked in the window
+    /// ...
+    pub allow_per_walked: f64,
+    /// ... plus this many times the cloud's RMS spread before the update.
+    pub allow_spread: f64,
+    /// The trust is (allowed / pull)^`trust_exponent` once the pull
+    /// exceeds the allowed correction: 1 holds the radio's pull at the
+    /// budget (a wrong radio still drags the cloud at the budget's rate),
+    /// above 1 the radio loses more of its say the further it asks to go.
+    pub trust_exponent: f64,
+    /// The trust never falls below this.
+    pub min_trust: f64,
+    /// Re-seeding from the radio (likelihood surface, anchors) only while
+    /// the trust is at least this.
+    pub reseed_min_trust: f64,
+    /// The accuracy radius gains this share of the pull the engine did
+    /// not follow ((1 - trust) x the window's summed pull), in quadrature.
+    pub accuracy_share: f64,
+}
+
+impl Default for IntegrityConfig {
+    fn default() -> Self {
+        IntegrityConfig {
+            enabled: false,
+            after_global_start: true,
+            window_s: 20.0,
+            allow_m: 3.0,
+            allow_per_walked: 0.1,
+            allow_spread: 1.0,
+            trust_exponent: 1.0,
+            min_trust: 0.05,
+            reseed_min_trust: 0.5,
+            accuracy_share: 1.0,
+        }
+    }
+}
+
+impl IntegrityConfig {
+    /// Checks every field; errors name `tcpf.integrity.<field>`.
+    pub fn validate(&self) -> Result<()> {
+        for (f, v, lo, hi) in [
+            ("window_s", self.window_s, 0.5, 600.0),
+            ("allow_m", self.allow_m, 0.0, 1000.0),
+            ("allow_per_walked", self.allow_per_walked, 0.0, 10.0),
+            ("allow_spread", self.allow_spread, 0.0, 100.0),
+            ("trust_exponent", self.trust_exponent, 0.1, 10.0),
+            ("min_trust", self.min_trust, 0.001, 1.0),
+            ("reseed_min_trust", self.reseed_min_trust, 0.0, 1.0),
+            ("accuracy_share", self.accuracy_share, 0.0, 100.0),
+        ] {
+            crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
+        }
+        Ok(())
+    }
+}
+
+/// One radio update in the window: its time, its pull at full trust and
+/// the distance walked since the previous update.
+#[derive(Debug, Clone, Copy)]
+struct Entry {
+    t_ns: i64,
+    pull: Vec2,
+    walked_m: f64,
+}
+
+/// The radio's trust: the window of pulls and the value it gives.
+#[derive(Debug, Clone)]
+pub struct RadioIntegrity {
+    entries: VecDeque<Entry>,
+    /// Distance walked since the last radio update, m.
+    walked_m: f64,
+    trust: f64,
+    /// The window's summed pull at full trust, m.
+    pull_m: f64,
+    /// Whether the current cloud is checked (a told start, or any start
+    /// with `after_global_start`).
+    active: bool,
+    /// Pulls the engine refused (re-seedings beyond the budget) since the
+    /// last radio update, at full trust, m.
+    refused: Vec2,
+}
+
+impl Default for RadioIntegrity {
+    fn default() -> Self {
+        RadioIntegrity {
+            entries: VecDeque::new(),
+            walked_m: 0.0,
+            trust: 1.0,
+            pull_m: 0.0,
+            active: false,
+            refused: Vec2::zeros(),
+        }
+    }
+}
+
+/// At most this many updates in the window (a bound on memory whatever
+/// the task periods).
+const MAX_ENTRIES: usize = 4096;
+
+impl RadioIntegrity {
+    /// A new cloud (start, floor change): empty window, full trust;
+    /// `told` whether the cloud was placed at a told position.
+    pub fn restart(&mut self, cfg: &IntegrityConfig, told: bool) {
+        self.entries.clear();
+        self.walked_m = 0.0;
+        self.trust = 1.0;
+        self.pull_m = 0.0;
+        self.refused = Vec2::zeros();
+        self.active = cfg.enabled && (told || cfg.after_global_start);
+    }
+
+    /// Whether the current cloud is checked.
+    pub fn is_active(&self) -> bool {
+        self.active
+    }
+
+    /// The correction the walk allows over the window, m: `allow_m` plus
+    /// `allow_per_walked` of the distance walked in it (and since the last
+    /// update) plus `allow_spread` x `spread_m` (the cloud's RMS spread).
+    pub fn allowed_m(&self, cfg: &IntegrityConfig, spread_m: f64) -> f64 {
+        let walked = self.entries.iter().skip(1).map(|e| e.walked_m).sum::<f64>() + self.walked_m;
+        let spread = if spread_m.is_finite() { spread_m } else { 0.0 };
+        cfg.allow_m + cfg.allow_per_walked * walked + cfg.allow_spread * spread
+    }
+
+    /// A pull the engine did not make (a re-seeding refused): it counts
+    /// in the window at the next radio update as if made at full trust.
+    pub fn refuse(&mut self, pull: Vec2) {
+        if pull.x.is_finite() && pull.y.is_finite() {
+            self.refused += pull;
+        }
+    }
+
+    /// One step of `length_m` walked.
+    pub fn on_step(&mut self, length_m: f64) {
+        if length_m.is_finite() && length_m > 0.0 {
+            self.walked_m += length_m;
+        }
+    }
+
+    /// One radio update at `t_ns` moved the cloud's weighted mean by
+    /// `pull` (m) with the current trust; `spread_m` is the cloud's RMS
+    /// spread before it. Updates the trust.
+    pub fn on_radio(&mut self, cfg: &IntegrityConfig, t_ns: i64, pull: Vec2, spread_m: f64) {
+        if !self.active {
+            return;
+        }
+        let pull = if pull.x.is_finite() && pull.y.is_finite() {
+            pull / self.trust.max(cfg.min_trust)
+        } else {
+            Vec2::zeros()
+        } + std::mem::take(&mut self.refused);
+        self.entries.push_back(Entry {
+            t_ns,
+            pull,
+            walked_m: self.walked_m,
+        });
+        self.walked_m = 0.0;
+        let oldest = t_ns.saturating_sub((cfg.window_s * 1e9) as i64);
+        while self
+            .entries
+            .front()
+            .is_some_and(|e| e.t_ns < oldest || self.entries.len() > MAX_ENTRIES)
+        {
+            self.entries.pop_front();
+        }
+        let sum = self.entries.iter().fold(Vec2::zeros(), |s, e| s + e.pull);
+        self.pull_m = sum.norm();
+        // the first entry's walk happened before the window's first pull
+        let allowed = self.allowed_m(cfg, spread_m);
+        self.trust = if self.pull_m > allowed {
+            (allowed / self.pull_m)
+                .powf(cfg.trust_exponent)
+                .clamp(cfg.min_trust, 1.0)
+        } else {
+            1.0
+        };
+    }
+
+    /// The radio's trust in [`IntegrityConfig::min_trust`, 1] (1 when
+    /// unchecked).
+    pub fn trust(&self) -> f64 {
+        self.trust
+    }
+
+    /// The part of the window's pull the engine did not follow, m.
+    pub fn unfollowed_m(&self) -> f64 {
+        (1.0 - self.trust) * self.pull_m
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn on() -> IntegrityConfig {
+        IntegrityConfig {
+            enabled: true,
+            ..IntegrityConfig::default()
+        }
+    }
+
+    /// Guards the budget: pulls that keep within what the steps allow
+    /// keep full trust, a steady pull beyond it lowers the trust to about
+    /// budget / pull, and the trust comes back once the pulls stop.
+    #[test]
+    fn a_steady_pull_beyond_the_budget_lowers_the_trust_and_it_recovers() {
+        let cfg = on();
+        let mut r = RadioIntegrity::default();
+        r.restart(&cfg, true);
+        let s = 1_000_000_000i64;
+        // 1 m/s walked, 0.05 m of pull per second: 20 s -> 1 m < 3 + 2 m
+        for k in 0..40 {
+            r.on_step(1.0);
+            r.on_radio(&cfg, k * s, Vec2::new(0.05, 0.0), 0.5);
+        }
+        assert_eq!(r.trust(), 1.0);
+        // 1 m of pull per second at full trust, in one direction
+        for k in 40..100 {
+            r.on_step(1.0);
+            let p = Vec2::new(0.0, 1.0) * r.trust();
+            r.on_radio(&cfg, k * s, p, 0.5);
+        }
+        // budget 3 + 0.1 x 20 + 0.5 = 5.5 m against ~21 m of pull
+        let t = r.trust();
+        assert!(t > 0.15 && t < 0.4, "trust {t}");
+        assert!(r.unfollowed_m() > 10.0, "{}", r.unfollowed_m());
+        for k in 100..130 {
+            r.on_step(1.0);
+            r.on_radio(&cfg, k * s, Vec2::zeros(), 0.5);
+        }
+        assert_eq!(r.trust(), 1.0);
+    }
+
+    /// Guards the direction: pulls that go back and forth (a radio's noise
+    /// around a correct track) cancel in the sum.
+    #[test]
+    fn pulls_back_and_forth_keep_full_trust() {
+        let cfg = on();
+        let mut r = RadioIntegrity::default();
+        r.restart(&cfg, true);
+        for k in 0..100i64 {
+            r.on_step(0.7);
+            let sign = if k % 2 == 0 { 1.0 } else { -1.0 };
+            r.on_radio(&cfg, k * 1_000_000_000, Vec2::new(sign * 2.0, 0.0), 0.5);
+            assert!(r.trust() == 1.0, "trust {} at {k}", r.trust());
+        }
+    }
+
+    /// Off, or a global start without `after_global_start`: trust 1
+    /// whatever the pulls.
+    #[test]
+    fn unchecked_clouds_keep_full_trust() {
+        let mut r = RadioIntegrity::default();
+        let global_off = IntegrityConfig {
+            after_global_start: false,
+            ..on()
+        };
+        for (cfg, told) in [(IntegrityConfig::default(), true), (global_off, false)] {
+            r.restart(&cfg, told);
+            for k in 0..50i64 {
+                r.on_radio(&cfg, k * 1_000_000_000, Vec2::new(5.0, 0.0), 0.1);
+            }
+            assert_eq!(r.trust(), 1.0);
+        }
+    }
+
+    #[test]
+    fn config_errors_name_the_field() {
+        let bad = IntegrityConfig {
+            min_trust: 0.0,
+            ..IntegrityConfig::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("tcpf.integrity.min_trust"), "{e}");
+    }
+}

@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # JVM host verification of the JNI surface (called by scripts/test.sh).
 #
-# 1. builds libfpbp for the host and the two reference examples
-#    (rust/jni/examples/{replay_reference,log_echo}.rs);
+# 1. builds libfpbp for the host with the `self-test` feature (the test hooks
+#    of io.fpbp.NativeSelfTest), the two reference examples
+#    (rust/jni/examples/{replay_reference,log_echo}.rs) and the `fpbp` CLI
+#    (SurveyRecordingTest runs `fpbp calibrate --wifi --radio-map` on the
+#    survey files the library recorded; they stay in
+#    $CARGO_TARGET_DIR/fpbp-host-tests/survey);
 # 2. computes the pure-Rust replay of a shipped log (the reference track);
 # 3. with Maven (batch, quiet): compiles the Kotlin library (android/fpbp) and
 #    the sample app sources (android/app, against Robolectric's android-all
@@ -44,8 +48,13 @@ if ! command -v mvn >/dev/null || ! command -v java >/dev/null; then
   exit 0
 fi
 
-echo "== cargo build --release -p fpbp-jni (libfpbp + reference examples)"
-cargo build --release -p fpbp-jni --lib --examples
+# The self-test feature adds the test hooks of io.fpbp.NativeSelfTest (the
+# shipped Android library is built without them).
+# One cargo call for all three (libfpbp, its examples, the fpbp binary): one
+# feature resolution, so the shared crates are compiled once, not per package.
+echo "== cargo build --release: libfpbp (feature self-test), reference examples, fpbp binary"
+cargo build --release -p fpbp-jni -p fpbp-cli --features fpbp-jni/self-test --lib --bin fpbp \
+  --example replay_reference --example log_echo --example events_dump
 lib="$target/release"
 [ -f "$lib/libfpbp.so" ] || [ -f "$lib/libfpbp.dylib" ] || { echo "libfpbp not found in $lib"; exit 1; }
 
@@ -103,7 +112,6 @@ facade_props=("-Dfpbp.facade.events=none")
 if [ $bench -eq 0 ]; then
   if [ -f "$f1/path_data_files/$facade_log_name" ]; then
     echo "== facade replay inputs: ILC F1 site, radio map, bundle, eval track (into $facade)"
-    cargo build --release -p fpbp-cli
     fpbp="$target/release/fpbp"
     rm -rf "$facade" && mkdir -p "$facade"
     step() { # step NAME CMD...: runs CMD with its output in $facade/NAME.log, prints the time
@@ -145,6 +153,7 @@ props+=(
   "-Dfpbp.replay.engine=$engine"
   "-Dfpbp.replay.init=$init"
   "-Dfpbp.log_echo=$lib/examples/log_echo"
+  "-Dfpbp.survey.dir=$out/survey"
 )
 if [ $bench -eq 1 ]; then
   props+=("-Dsurefire.groups=bench" "-Dsurefire.excludedGroups=" "-Dtest=JniOverheadBench,BundleLoadBench" "-Dfpbp.checkjni=")

@@ -28,6 +28,7 @@ pub mod error;
 pub mod live;
 pub mod logging;
 pub mod registry;
+#[cfg(any(test, feature = "self-test"))]
 pub mod selftest;
 pub mod session;
 pub mod site_loader;
@@ -572,11 +573,16 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_engineNames<'l>(
     })
 }
 
+// Test hooks, bound to the Kotlin test object `io.fpbp.NativeSelfTest`
+// (host-tests/jvm). Only with the `self-test` feature: the Android library
+// (android/fpbp's cargoNdk task) is built without it and exports none of them.
+
 /// `selfTestPanic()`: panics inside the native library on purpose, so tests
 /// can check that a panic becomes `io.fpbp.FpbpNativeException` and that the
 /// library keeps working afterwards.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestPanic<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) {
@@ -589,8 +595,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
 /// whose every task run waits at the process's self-test gate
 /// (`selfTestGate`), so host tests can show that reads do not wait for a
 /// running task. Starts with a pose at t = 1.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestStartBlocking<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestStartBlocking<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) -> jlong {
@@ -601,8 +608,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestStartBlocking<'l>(
 }
 
 /// `selfTestGate(open)`: opens or closes the self-test gate.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestGate<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestGate<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
     open: jboolean,
@@ -614,8 +622,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestGate<'l>(
 }
 
 /// `selfTestBlockedTasks() -> Int`: task runs waiting at the self-test gate.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestBlockedTasks<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestBlockedTasks<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) -> jint {

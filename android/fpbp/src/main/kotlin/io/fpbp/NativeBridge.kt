@@ -157,20 +157,4 @@ object NativeBridge {
 
     /** Engine names [start] accepts, comma-separated. */
     @JvmStatic external fun engineNames(): String
-
-    /** Panics inside the native library on purpose (tests: the panic must surface as [FpbpNativeException]). */
-    @JvmStatic external fun selfTestPanic()
-
-    /**
-     * Test hook: starts a test double (not an engine) whose every task run
-     * waits at the self-test gate while it is closed ([selfTestGate]).
-     * Nothing but tests calls it.
-     */
-    @JvmStatic external fun selfTestStartBlocking(): Long
-
-    /** Test hook: opens or closes the self-test gate. */
-    @JvmStatic external fun selfTestGate(open: Boolean)
-
-    /** Test hook: task runs waiting at the self-test gate now. */
-    @JvmStatic external fun selfTestBlockedTasks(): Int
 }

@@ -1,6 +1,8 @@
 // fpbp Android project: the Android library (:fpbp, an AAR with libfpbp.so;
-// its io.fpbp package has no android.* imports) and the sample app (:app). Open this folder (android/) in Android Studio with
-// the NDK and cargo-ndk installed; see README.md.
+// its io.fpbp package has no android.* imports) and the sample app (:app).
+// Open this folder (android/) in Android Studio with the NDK and cargo-ndk
+// installed, or run ./gradlew; see README.md. No JDK toolchain is pinned (the
+// modules set Java/Kotlin target 17), so no toolchain resolver is needed.
 pluginManagement {
     repositories {
         google()

@@ -24,8 +24,12 @@ echo "== cargo fmt --check"
 cargo fmt --all -- --check
 echo "== cargo clippy -D warnings"
 cargo clippy --workspace --all-targets --release -- -D warnings
+echo "== cargo clippy -p fpbp-jni --features self-test -D warnings (the test hooks of the host JNI library)"
+cargo clippy -p fpbp-jni --all-targets --release --features self-test -- -D warnings
 echo "== cargo test"
 cargo test --workspace --release
+echo "== android/gradlew without and with a wrapper jar (offline, fake distribution)"
+bash host-tests/gradle/gradlew-test.sh
 if [ "$jvm" = 1 ] && [ -x host-tests/jvm/run.sh ]; then
   echo "== JVM host tests (Kotlin bridge against the real libfpbp)"
   host-tests/jvm/run.sh

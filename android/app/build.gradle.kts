@@ -1,5 +1,8 @@
 // Sample app: plain Android framework APIs (no AndroidX). libfpbp.so comes
-// with the :fpbp library (its cargoNdk task builds it for each ABI).
+// with the :fpbp library (its cargoNdk<Variant> tasks build it for each ABI).
+import org.jetbrains.kotlin.gradle.dsl.JvmTarget
+import javax.inject.Inject
+
 plugins {
     id("com.android.application")
     id("org.jetbrains.kotlin.android")
@@ -20,34 +23,70 @@ android {
     sourceSets {
         getByName("main") {
             java.srcDir("src/main/kotlin")
-            // The demo site (site.json + plan) ships as assets under demo/.
-            assets.srcDir(layout.buildDirectory.dir("generated/siteAssets"))
         }
     }
 
+    // Bytecode for Java 17 from any JDK 17+ running Gradle (no pinned toolchain).
     compileOptions {
         sourceCompatibility = JavaVersion.VERSION_17
         targetCompatibility = JavaVersion.VERSION_17
     }
+
+    packaging {
+        jniLibs {
+            // libfpbp.so stored uncompressed and page-aligned in the APK and
+            // loaded from there (no extraction at install). Its LOAD segments
+            // are 16 KB aligned (../../.cargo/config.toml), as Google Play
+            // requires for apps targeting Android 15+.
+            useLegacyPackaging = false
+        }
+    }
 }
 
 kotlin {
-    jvmToolchain(17)
+    compilerOptions {
+        jvmTarget.set(JvmTarget.JVM_17)
+    }
 }
 
 dependencies {
     implementation(project(":fpbp"))
 }
 
+/** Copies a site folder into `outputDir/demo/` (AGP chooses outputDir). */
+abstract class CopySiteAssets : DefaultTask() {
+    @get:InputDirectory
+    @get:PathSensitive(PathSensitivity.RELATIVE)
+    abstract val siteDir: DirectoryProperty
+
+    @get:OutputDirectory
+    abstract val outputDir: DirectoryProperty
+
+    @get:Inject
+    abstract val fs: FileSystemOperations
+
+    @TaskAction
+    fun copy() {
+        fs.sync {
+            from(siteDir) { into("demo") }
+            into(outputDir.get().asFile)
+        }
+    }
+}
+
 /** Repository root (the Cargo workspace). */
 val repoRoot: File = rootDir.parentFile
 
-/** Copies maps/demo into the generated assets as demo/. */
-val copySiteAssets by tasks.registering(Copy::class) {
-    from(repoRoot.resolve("maps/demo"))
-    into(layout.buildDirectory.dir("generated/siteAssets/demo"))
-}
-
-tasks.matching { it.name.startsWith("merge") && it.name.endsWith("Assets") }.configureEach {
-    dependsOn(copySiteAssets)
+// The demo site (maps/demo: site.json + plan) ships as assets under demo/.
+// Registered as a generated assets folder of each variant, so every task that
+// reads the variant's assets (merge, lint, lintVital, packaging) depends on it.
+androidComponents {
+    onVariants { variant ->
+        val copySiteAssets = tasks.register<CopySiteAssets>(
+            "copy" + variant.name.replaceFirstChar { it.uppercase() } + "SiteAssets",
+        ) {
+            siteDir.set(repoRoot.resolve("maps/demo"))
+        }
+        variant.sources.assets?.addGeneratedSourceDirectory(copySiteAssets, CopySiteAssets::outputDir)
+    }
 }

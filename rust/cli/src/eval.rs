@@ -71,6 +71,11 @@ pub struct Args {
     /// Radios whose events the engines get (the others' are dropped before replay).
     #[arg(long, value_enum, value_delimiter = ',', default_value = "ble,wifi")]
     pub radios: Vec<crate::radios::Radio>,
+    /// Also write every engine's whole track on every log:
+    /// DIR/tracks/ENGINE/LOG.csv in the track.csv layout of `fpbp replay`
+    /// (every f64 printed exactly; the JVM host tests compare them bit for bit).
+    #[arg(long)]
+    pub tracks: bool,
     /// Worker threads: the (log, seed) replays run in parallel, each engine
     /// on its own RNG, so the tracks and metrics do not depend on it
     /// (default: every core; 1 = serial).
@@ -506,6 +511,16 @@ fn write_outputs(
     let pp = args.out.join("points.csv");
     std::fs::write(&pp, points_csv(engines, &runs))
         .with_context(|| format!("cannot write {}", pp.display()))?;
+    if args.tracks {
+        for (e, rs) in engines.iter().zip(&runs) {
+            let dir = args.out.join("tracks").join(e);
+            std::fs::create_dir_all(&dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+            for r in rs {
+                crate::report::write_track_csv(&dir.join(format!("{}.csv", r.log)), &r.out)?;
+            }
+        }
+    }
     let refs: Vec<&common::LoadedLog> = loaded.iter().collect();
     let mrefs: Vec<&EngineMetrics> = metrics.iter().collect();
     let empty = crate::report::check_positioned(site, &refs, engines, &runs, &mrefs);
@@ -638,12 +653,17 @@ mod tests {
             fingerprints: None,
             radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
+            tracks: true,
             jobs: None,
         };
         // walk-east has no start without --init truth: it positions nothing,
         // which is an error naming it (after the outputs are written)
         let e = run_with(&args, &builder, false).unwrap_err().to_string();
         assert!(e.contains("nothing positioned by walk-east"), "{e}");
+        // --tracks: every engine's whole track per log, track.csv layout
+        let t = std::fs::read_to_string(d.join("out/tracks/pdr/walk1.log.csv")).unwrap();
+        assert_eq!(t.lines().next(), Some(crate::report::TRACK_CSV_HEADER));
+        assert!(t.lines().any(|l| l.starts_with("pose,")), "{t}");
         let (ms, empty) = run_inner(&args, &builder, false).unwrap();
         assert!(empty.is_err());
         assert_eq!(ms.len(), 2);
@@ -826,6 +846,7 @@ mod tests {
             fingerprints: None,
             radio_map: None,
             radios: vec![crate::radios::Radio::Ble, crate::radios::Radio::Wifi],
+            tracks: false,
             jobs: None,
         };
         let ms = run_with(&args, &common::core_builder, false).unwrap();

@@ -1,6 +1,7 @@
 //! `fpbp`: the command-line front end of the fpbp positioning core.
 //! The libraries do the work; this binary parses, validates and prints.
 
+mod bundle;
 mod calibrate;
 mod common;
 mod demo;
@@ -61,6 +62,9 @@ enum Command {
     Demo(demo::Args),
     /// The five papers on simulated replicas of their testbeds: ours beside the paper's figures.
     Reproduce(reproduce::Args),
+    /// One file with a site, its plans and its radio map for the phone
+    /// (docs/formats.md "Site bundle"); `--check` loads one with figures.
+    Bundle(bundle::Args),
     /// Fingerprint databases for robust-ekf (walked survey logs).
     Fingerprint {
         #[command(subcommand)]
@@ -90,6 +94,7 @@ fn main() {
         Command::Demo(a) => demo::run(a),
         Command::Reproduce(a) => reproduce::run(a),
         Command::Fingerprint { command } => fingerprint::run(command),
+        Command::Bundle(a) => bundle::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {}", error_text(&e));

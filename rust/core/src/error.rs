@@ -28,6 +28,11 @@ pub enum Error {
     /// engine without a way to move its state to a given point).
     #[error("{0}")]
     Unsupported(String),
+    /// A site bundle (`fpbp bundle`) is malformed: `at` names the header
+    /// field, manifest field (`manifest.entries[2].size`) or entry
+    /// (`entry radio-map.json.gz`) at fault.
+    #[error("bundle: {at}: {msg}")]
+    Bundle { at: String, msg: String },
     /// Calibration could not produce a result.
     #[error("calibration: {0}")]
     Calibration(String),

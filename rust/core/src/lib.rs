@@ -8,6 +8,7 @@
 
 pub mod ble;
 pub mod bounds;
+pub mod bundle;
 pub mod engine;
 pub mod engines;
 pub mod error;

@@ -28,6 +28,7 @@ pub mod error;
 pub mod live;
 pub mod logging;
 pub mod registry;
+#[cfg(any(test, feature = "self-test"))]
 pub mod selftest;
 pub mod session;
 pub mod site_loader;
@@ -35,7 +36,9 @@ pub mod site_loader;
 use std::path::Path;
 use std::sync::LazyLock;
 
-use jni::objects::{JClass, JDoubleArray, JIntArray, JLongArray, JObjectArray, JString};
+use jni::objects::{
+    JByteBuffer, JClass, JDoubleArray, JIntArray, JLongArray, JObjectArray, JString,
+};
 use jni::sys::{jboolean, jdouble, jint, jlong};
 use jni::{Env, EnvUnowned};
 
@@ -178,6 +181,78 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_start<'l>(
         let handle = SESSIONS.insert(Live::new(session))?;
         log::info!("started engine `{engine}` as handle {handle}");
         Ok(handle)
+    })
+}
+
+/// The bytes of a direct `java.nio.ByteBuffer` (capacity, from address 0;
+/// Kotlin passes `slice()` so position and limit are the slice's).
+///
+/// The slice lives for the call: the buffer is a local reference the
+/// caller keeps alive, and a direct buffer's memory does not move. (A
+/// memory-mapped file truncated by another process during the call would
+/// fault: the library maps read-only files it owns.)
+fn direct_bytes<'b>(env: &Env<'_>, buf: &'b JByteBuffer<'_>) -> Result<&'b [u8], BridgeError> {
+    if buf.is_null() {
+        return Err(BridgeError::IllegalArgument("bundle is null".into()));
+    }
+    let not_direct = |_| {
+        BridgeError::IllegalArgument(
+            "bundle must be a direct ByteBuffer (FileChannel.map or ByteBuffer.allocateDirect)"
+                .into(),
+        )
+    };
+    let len = env.get_direct_buffer_capacity(buf).map_err(not_direct)?;
+    if len == 0 {
+        return Ok(&[]);
+    }
+    let ptr = env.get_direct_buffer_address(buf).map_err(not_direct)?;
+    // SAFETY: `ptr` is the non-null start of the direct buffer's `len`
+    // bytes, valid while `buf` (a live local reference) is; only read.
+    #[allow(unsafe_code)]
+    Ok(unsafe { std::slice::from_raw_parts(ptr.cast_const(), len) })
+}
+
+/// `startBundle(bundle: ByteBuffer, configJson, engine, init) -> handle`:
+/// starts `engine` from a site bundle (`fpbp bundle`, docs/formats.md
+/// "Site bundle") in a direct buffer: site, plans and radio map are read
+/// from it in place, no String of the map crosses JNI.
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_startBundle<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    bundle: JByteBuffer<'l>,
+    config_json: JString<'l>,
+    engine: JString<'l>,
+    init: JDoubleArray<'l>,
+) -> jlong {
+    entry(&mut env, "startBundle", |env| {
+        let config_json = optional_string(env, &config_json)?.unwrap_or_default();
+        let engine = string_arg(env, &engine, "engine")?;
+        let init = double_array(env, &init)?
+            .map(|v| session::init_from_array(&v))
+            .transpose()?;
+        let bytes = direct_bytes(env, &bundle)?;
+        let session = Session::start_bundle(bytes, &config_json, &engine, init)?;
+        let handle = SESSIONS.insert(Live::new(session))?;
+        log::info!(
+            "started engine `{engine}` from a {}-byte bundle as handle {handle}",
+            bytes.len()
+        );
+        Ok(handle)
+    })
+}
+
+/// `bundleSiteJson(bundle: ByteBuffer) -> String`: the text of a bundle's
+/// site.json, after checking the whole bundle (manifest, sizes, hashes).
+#[unsafe(no_mangle)]
+pub extern "system" fn Java_io_fpbp_NativeBridge_bundleSiteJson<'l>(
+    mut env: EnvUnowned<'l>,
+    _class: JClass<'l>,
+    bundle: JByteBuffer<'l>,
+) -> JString<'l> {
+    entry(&mut env, "bundleSiteJson", |env| {
+        let json = Session::bundle_site_json(direct_bytes(env, &bundle)?)?;
+        Ok(JString::from_str(env, json)?)
     })
 }
 
@@ -498,11 +573,16 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_engineNames<'l>(
     })
 }
 
+// Test hooks, bound to the Kotlin test object `io.fpbp.NativeSelfTest`
+// (host-tests/jvm). Only with the `self-test` feature: the Android library
+// (android/fpbp's cargoNdk task) is built without it and exports none of them.
+
 /// `selfTestPanic()`: panics inside the native library on purpose, so tests
 /// can check that a panic becomes `io.fpbp.FpbpNativeException` and that the
 /// library keeps working afterwards.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestPanic<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) {
@@ -515,8 +595,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestPanic<'l>(
 /// whose every task run waits at the process's self-test gate
 /// (`selfTestGate`), so host tests can show that reads do not wait for a
 /// running task. Starts with a pose at t = 1.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestStartBlocking<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestStartBlocking<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) -> jlong {
@@ -527,8 +608,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestStartBlocking<'l>(
 }
 
 /// `selfTestGate(open)`: opens or closes the self-test gate.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestGate<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestGate<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
     open: jboolean,
@@ -540,8 +622,9 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestGate<'l>(
 }
 
 /// `selfTestBlockedTasks() -> Int`: task runs waiting at the self-test gate.
+#[cfg(feature = "self-test")]
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_selfTestBlockedTasks<'l>(
+pub extern "system" fn Java_io_fpbp_NativeSelfTest_selfTestBlockedTasks<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
 ) -> jint {

@@ -3,6 +3,9 @@
 //! gate until the test opens it, so the host tests can show that reads
 //! (`getPose`, `getBlePosition`, `stats`) return while a task is running.
 //! No real engine and no other entry point goes through this module.
+//! Compiled only with the crate's `self-test` feature (the host JNI library of
+//! host-tests/jvm) and in this crate's own unit tests; the Android library is
+//! built without it.
 
 use std::sync::{Arc, Condvar, Mutex, PoisonError};
 use std::time::{Duration, Instant};

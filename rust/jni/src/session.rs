@@ -138,29 +138,73 @@ impl Session {
         init: Option<InitialPosition>,
         fingerprints_json: Option<&str>,
     ) -> Result<Session, BridgeError> {
+        // the entry point's error policy clips an echoed engine name (clip_echoes)
+        let config = Self::config_for(config_json, engine)?;
+        let site = site_loader::load_site(site_json, site_dir)?;
+        let data = match fingerprints_json.filter(|t| !t.trim().is_empty()) {
+            Some(text) => EngineData::from_json(text, &site, &config.ble)?,
+            None => EngineData::default(),
+        };
+        Self::build(site, &config, engine, init, &data)
+    }
+
+    /// Starts `engine` from a site bundle (`fpbp bundle`,
+    /// `fpbp_core::bundle`): its site, plans and radio map (if any; for
+    /// `tcpf` and `scan-knn`), all read from `bundle` without copying the
+    /// map into a string. Errors name the bundle's field or entry.
+    pub fn start_bundle(
+        bundle: &[u8],
+        config_json: &str,
+        engine: &str,
+        init: Option<InitialPosition>,
+    ) -> Result<Session, BridgeError> {
+        let config = Self::config_for(config_json, engine)?;
+        let b = fpbp_core::bundle::Bundle::parse(bundle)?;
+        let site = b.build_site()?;
+        let data = EngineData {
+            radio_map: b.radio_map(&site)?.map(Arc::new),
+            ..EngineData::default()
+        };
+        Self::build(site, &config, engine, init, &data)
+    }
+
+    /// The text of a bundle's site.json (the whole bundle is checked first:
+    /// manifest, sizes, hashes), for an app's scan filters.
+    pub fn bundle_site_json(bundle: &[u8]) -> Result<String, BridgeError> {
+        let b = fpbp_core::bundle::Bundle::parse(bundle)?;
+        String::from_utf8(b.site_json().to_vec()).map_err(|e| {
+            BridgeError::IllegalArgument(format!("bundle: entry site.json: not UTF-8: {e}"))
+        })
+    }
+
+    /// Checks the engine name and parses the config (empty text = defaults).
+    fn config_for(config_json: &str, engine: &str) -> Result<EngineConfig, BridgeError> {
         if !fpbp_core::engine::ENGINE_NAMES.contains(&engine) {
-            // the entry point's error policy clips the echoed name (clip_echoes)
             return Err(fpbp_core::Error::UnknownEngine(
                 engine.to_string(),
                 fpbp_core::engine::ENGINE_NAMES.join(", "),
             )
             .into());
         }
-        let config = if config_json.trim().is_empty() {
+        Ok(if config_json.trim().is_empty() {
             EngineConfig::default()
         } else {
             EngineConfig::from_json(config_json)?
-        };
-        let site = site_loader::load_site(site_json, site_dir)?;
-        let data = match fingerprints_json.filter(|t| !t.trim().is_empty()) {
-            Some(text) => EngineData::from_json(text, &site, &config.ble)?,
-            None => EngineData::default(),
-        };
+        })
+    }
+
+    fn build(
+        site: fpbp_core::site::Site,
+        config: &EngineConfig,
+        engine: &str,
+        init: Option<InitialPosition>,
+        data: &EngineData,
+    ) -> Result<Session, BridgeError> {
         let frame = MapFrame {
             georef: site.spec.georef,
             map_from_enu_rad: site.spec.map_from_enu_rad,
         };
-        let engine = build_engine_with(engine, Arc::new(site), &config, init, &data)?;
+        let engine = build_engine_with(engine, Arc::new(site), config, init, data)?;
         Ok(Session {
             frame,
             ..Session::from_engine(engine)
@@ -818,6 +862,75 @@ mod tests {
             Err(BridgeError::IllegalArgument(m)) => assert!(m.contains("fingerprint"), "{m}"),
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("started with a bad fingerprint file"),
+        }
+    }
+
+    /// A bundle of the demo site and a radio map starts the engine the
+    /// site and map texts start: the same poses on the same inputs; a
+    /// damaged bundle is an IllegalArgument naming the entry.
+    #[test]
+    fn start_bundle_equals_start_with_the_same_files() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+        let site = std::fs::read_to_string(dir.join("site.json")).expect("demo site");
+        let plan = std::fs::read(dir.join("plan.png")).expect("demo plan");
+        let map = r#"{"format": "fpbp-radio-map", "version": 1, "transmitters": [
+            {"id": "ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:1", "kind": "ble",
+             "floor": 0, "x_m": 3.5, "y_m": 3.5,
+             "grids": [{"floor": 0, "x0_m": 0.0, "y0_m": 0.0, "cell_m": 2.0, "nx": 2, "ny": 1,
+                        "mean_dbm_x10": [-600, -650], "sd_dbm_x10": [40, 45]}]}]}"#;
+        let spec =
+            fpbp_core::site::SiteSpec::from_json(site.as_bytes(), "site.json").expect("demo spec");
+        let plan_name = spec.floors[0].plan.clone().expect("a plan");
+        let plans = [(plan_name.as_str(), plan.as_slice())];
+        let bytes = fpbp_core::bundle::write(&fpbp_core::bundle::BundleInput {
+            site_json: site.as_bytes(),
+            plans: &plans,
+            radio_map_json: Some(map.as_bytes()),
+            writer: "test",
+        })
+        .expect("bundle");
+        assert_eq!(Session::bundle_site_json(&bytes).expect("site text"), site);
+        let init = Some(InitialPosition {
+            x_m: 5.0,
+            y_m: 5.0,
+            floor: 0,
+            heading_rad: Some(0.0),
+        });
+        let mut a = Session::start(&site, &dir, "", "tcpf", init, Some(map)).expect("start");
+        let mut b = Session::start_bundle(&bytes, "", "tcpf", init).expect("start bundle");
+        for k in 0..40i64 {
+            let t = k * 100_000_000;
+            for s in [&mut a, &mut b] {
+                s.on_sensor(1, t, Some(&[0.1, 0.2, 9.8]));
+                s.on_ble(
+                    t,
+                    Some("ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:1".into()),
+                    -65.0 - (k % 5) as f64,
+                    f64::NAN,
+                );
+                s.run_task(Task::Fusion, t);
+            }
+            assert_eq!(a.snapshot(), b.snapshot(), "at {t}");
+        }
+        assert!(a.snapshot().pose.is_some());
+        // a changed byte in the map entry: refused, naming it
+        let mut bad = bytes.clone();
+        let n = bad.len();
+        bad[n - 20] ^= 0x55;
+        match Session::start_bundle(&bad, "", "tcpf", None) {
+            Err(BridgeError::IllegalArgument(m)) => {
+                assert!(
+                    m.contains("bundle") && m.contains("radio-map.json.gz"),
+                    "{m}"
+                )
+            }
+            Err(e) => panic!("unexpected error {e}"),
+            Ok(_) => panic!("started from a damaged bundle"),
+        }
+        // the engine name is checked before the bundle is read
+        match Session::start_bundle(&[], "", "nope", None) {
+            Err(BridgeError::IllegalArgument(m)) => assert!(m.contains("unknown engine"), "{m}"),
+            _ => panic!("expected an unknown engine error"),
         }
     }
 }

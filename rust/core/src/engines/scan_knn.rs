@@ -15,7 +15,7 @@ use std::sync::Arc;
 use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
 use crate::events::{BleObservation, SensorEvent, WifiScan};
 use crate::radio::RadioModel;
-use crate::radio::reference_scans::{ScanMetric, ScanTrail, candidate_fix};
+use crate::radio::reference_scans::{CandidateFix, ScanMetric, ScanTrail, candidate_fix};
 use crate::wifi::FreshResults;
 
 /// The engine.
@@ -69,16 +69,23 @@ impl ScanKnnEngine {
             self.stats.no_fix += 1;
             return;
         };
-        self.pose = Some(Pose {
-            t_ns,
-            x_m: fix.mean.x,
-            y_m: fix.mean.y,
-            floor: fix.floor,
-            heading_rad: 0.0,
-            accuracy_m: fix.spread_m.max(1.0),
-            floor_prob: fix.share,
-            source: PoseSource::Radio,
-        });
+        self.pose = Some(pose_of(t_ns, &fix));
+    }
+}
+
+/// The pose of a candidate fix. The floor's share is a sum of normalised
+/// weights and can round past 1 (1.0000000000000002): the probability is
+/// clamped to the documented [0, 1].
+fn pose_of(t_ns: i64, fix: &CandidateFix) -> Pose {
+    Pose {
+        t_ns,
+        x_m: fix.mean.x,
+        y_m: fix.mean.y,
+        floor: fix.floor,
+        heading_rad: 0.0,
+        accuracy_m: fix.spread_m.max(1.0),
+        floor_prob: fix.share.clamp(0.0, 1.0),
+        source: PoseSource::Radio,
     }
 }
 
@@ -135,5 +142,38 @@ impl Engine for ScanKnnEngine {
 
     fn stats(&self) -> EngineStats {
         self.stats.clone()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Vec2;
+    use crate::radio::reference_scans::WeightedCandidate;
+
+    /// Weights that sum past 1 in f64 (0.2 + 0.4 + 0.3 + 0.1): the fix's share
+    /// is 1.0000000000000002, the pose's floor probability stays 1. Fails
+    /// without the clamp in `pose_of`.
+    #[test]
+    fn floor_probability_never_exceeds_one() {
+        let c: Vec<WeightedCandidate> = [0.2, 0.4, 0.3, 0.1]
+            .iter()
+            .enumerate()
+            .map(|(i, &w)| WeightedCandidate {
+                floor: 1,
+                pos: Vec2::new(i as f64, 2.0),
+                w,
+                dist_db: 1.0,
+            })
+            .collect();
+        let fix = candidate_fix(&c).expect("a fix");
+        assert!(
+            fix.share > 1.0,
+            "the case needs a share past 1: {}",
+            fix.share
+        );
+        let p = pose_of(5, &fix);
+        assert!((0.0..=1.0).contains(&p.floor_prob), "{}", p.floor_prob);
+        assert_eq!(p.floor_prob, 1.0);
     }
 }

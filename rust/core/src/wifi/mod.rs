@@ -116,6 +116,13 @@ impl BssidGrouping {
 /// so a result counts only when it was seen more than `repeat_tolerance_ns`
 /// after the last counted result of its BSSID, and only when it is at most
 /// `max_age_ns` older than its scan.
+///
+/// What it remembers is bounded: a BSSID whose last counted result is older
+/// than the scan's `max_age_ns + REPEAT_TOLERANCE_NS` is forgotten (no
+/// result fresh enough to count could be a repeat of it, so for scans in
+/// time order this changes nothing), and beyond [`MAX_FRESH_BSSIDS`]
+/// BSSIDs the oldest are dropped. Randomised hotspot MACs heard over a long
+/// session would otherwise grow the map without end.
 #[derive(Debug, Clone, Default)]
 pub struct FreshResults {
     last_seen_ns: BTreeMap<String, i64>,
@@ -125,9 +132,19 @@ pub struct FreshResults {
 /// on ILC (e.g. 1574559665384 and ...385).
 pub const REPEAT_TOLERANCE_NS: i64 = 10_000_000;
 
+/// Most BSSIDs [`FreshResults`] remembers; past it the oldest quarter is
+/// dropped. A phone hears a few hundred in one scan (the JNI bridge takes at
+/// most 512 per scan) and keeps only those of the last `max_age_ns`.
+pub const MAX_FRESH_BSSIDS: usize = 4096;
+
 impl FreshResults {
     /// The new results of `scan`, in scan order.
     pub fn of<'a>(&mut self, scan: &'a WifiScan, max_age_ns: i64) -> Vec<&'a WifiResult> {
+        self.forget_older_than(
+            scan.t_ns
+                .saturating_sub(max_age_ns.max(0))
+                .saturating_sub(REPEAT_TOLERANCE_NS),
+        );
         let mut out = Vec::new();
         for r in &scan.results {
             if scan.t_ns.saturating_sub(r.seen_t_ns) > max_age_ns || !r.rssi_dbm.is_finite() {
@@ -145,7 +162,43 @@ impl FreshResults {
             }
             out.push(r);
         }
+        if self.last_seen_ns.len() > MAX_FRESH_BSSIDS {
+            self.drop_oldest(MAX_FRESH_BSSIDS * 3 / 4);
+        }
         out
+    }
+
+    /// BSSIDs remembered now.
+    pub fn len(&self) -> usize {
+        self.last_seen_ns.len()
+    }
+
+    /// Whether no BSSID is remembered.
+    pub fn is_empty(&self) -> bool {
+        self.last_seen_ns.is_empty()
+    }
+
+    /// Forgets every BSSID last counted before `cutoff_ns`. A result that
+    /// passes the age test of a scan at `t` was seen at or after
+    /// `t - max_age`, later than `cutoff + REPEAT_TOLERANCE_NS`: it counts
+    /// whether or not the entry is still here.
+    fn forget_older_than(&mut self, cutoff_ns: i64) {
+        // cheap test first: most scans find nothing to forget
+        if self.last_seen_ns.values().any(|&l| l < cutoff_ns) {
+            self.last_seen_ns.retain(|_, l| *l >= cutoff_ns);
+        }
+    }
+
+    /// Keeps at most `keep` BSSIDs, the most recently counted (ties at the
+    /// cut are dropped together, so it may keep fewer).
+    fn drop_oldest(&mut self, keep: usize) {
+        let n = self.last_seen_ns.len();
+        if n <= keep {
+            return;
+        }
+        let mut times: Vec<i64> = self.last_seen_ns.values().copied().collect();
+        let (_, &mut cut, _) = times.select_nth_unstable(n - keep - 1);
+        self.last_seen_ns.retain(|_, l| *l > cut);
     }
 }
 
@@ -227,5 +280,92 @@ mod tests {
             results: vec![res("00:00:00:00:00:01", 13_000_000_000)],
         };
         assert_eq!(f.of(&s3, 5_000_000_000).len(), 1);
+    }
+
+    /// The map stays bounded (issue 37: 10^6 randomised BSSIDs cost ~154 MB
+    /// before): by age when scans move on, by the cap when they all arrive
+    /// within the freshness window. Fails if either bound is removed.
+    #[test]
+    fn remembered_bssids_stay_bounded() {
+        let bssid = |i: u64| {
+            let b = i.to_be_bytes();
+            format!(
+                "{:02x}:{:02x}:{:02x}:{:02x}:{:02x}:{:02x}",
+                b[2], b[3], b[4], b[5], b[6], b[7]
+            )
+        };
+        let max_age = 5_000_000_000;
+        // 120 000 distinct BSSIDs, 40 per scan, one scan a second: the age rule
+        let mut f = FreshResults::default();
+        let mut peak = 0;
+        for k in 0..3000u64 {
+            let t = 1_000_000_000 * (k as i64 + 1);
+            let scan = WifiScan {
+                t_ns: t,
+                results: (0..40).map(|j| res(&bssid(k * 40 + j), t)).collect(),
+            };
+            assert_eq!(f.of(&scan, max_age).len(), 40, "every result is new");
+            peak = peak.max(f.len());
+        }
+        // the scans of the last max_age + tolerance: 6 x 40
+        assert!(peak <= 6 * 40, "remembered {peak} BSSIDs");
+        // 120 000 distinct BSSIDs within one freshness window: the cap
+        let mut f = FreshResults::default();
+        for k in 0..3000u64 {
+            let t = 1_000_000 * (k as i64 + 1);
+            let scan = WifiScan {
+                t_ns: t,
+                results: (0..40).map(|j| res(&bssid(k * 40 + j), t)).collect(),
+            };
+            f.of(&scan, i64::MAX);
+            assert!(f.len() <= MAX_FRESH_BSSIDS, "remembered {}", f.len());
+        }
+        assert!(f.len() >= MAX_FRESH_BSSIDS / 2, "kept too few: {}", f.len());
+    }
+
+    /// Forgetting by age never changes which results count, for scans in
+    /// time order (what keeps tcpf's tracks as they were): the same seeded
+    /// random scans through a bounded and an unbounded picker.
+    #[test]
+    fn forgetting_old_bssids_changes_no_result() {
+        use rand::{RngExt, SeedableRng};
+        let mut rng = rand_pcg::Pcg64::seed_from_u64(37);
+        let mut bounded = FreshResults::default();
+        let mut plain: BTreeMap<String, i64> = BTreeMap::new();
+        let max_age = 4_000_000_000;
+        let mut t = 0i64;
+        for _ in 0..3000 {
+            t += rng.random_range(200_000_000..3_000_000_000i64);
+            let results: Vec<WifiResult> = (0..rng.random_range(0..30))
+                .map(|_| {
+                    let ap = rng.random_range(0..60u32);
+                    let age = rng.random_range(0..8_000_000_000i64);
+                    res(&format!("00:00:00:00:00:{ap:02x}"), t - age)
+                })
+                .collect();
+            let scan = WifiScan { t_ns: t, results };
+            let got: Vec<(String, i64)> = bounded
+                .of(&scan, max_age)
+                .iter()
+                .map(|r| (r.bssid.clone(), r.seen_t_ns))
+                .collect();
+            // the unbounded rule, as it was
+            let mut want = Vec::new();
+            for r in &scan.results {
+                if scan.t_ns - r.seen_t_ns > max_age {
+                    continue;
+                }
+                if plain
+                    .get(&r.bssid)
+                    .is_some_and(|&l| r.seen_t_ns <= l + REPEAT_TOLERANCE_NS)
+                {
+                    continue;
+                }
+                plain.insert(r.bssid.clone(), r.seen_t_ns);
+                want.push((r.bssid.clone(), r.seen_t_ns));
+            }
+            assert_eq!(got, want, "at t = {t}");
+        }
+        assert!(bounded.len() < plain.len(), "nothing was ever forgotten");
     }
 }

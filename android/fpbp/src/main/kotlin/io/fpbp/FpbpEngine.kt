@@ -54,6 +54,25 @@ class FpbpEngine private constructor(
             return FpbpEngine(h, engine)
         }
 
+        /**
+         * Starts engine [engine] from a site bundle (`fpbp bundle`): site,
+         * plans and radio map in one file read in place by the native
+         * library ([SiteBundle.fromFile] maps it). [configJson] and [init] as
+         * in [start]. Throws [IllegalArgumentException] naming the bundle's
+         * field or entry at fault (a damaged file fails its SHA-256 check).
+         */
+        @JvmStatic
+        @JvmOverloads
+        fun startBundle(
+            bundle: SiteBundle,
+            engine: String = FpbpDefaults.ENGINE,
+            configJson: String = "",
+            init: InitialPosition? = null,
+        ): FpbpEngine {
+            val h = NativeBridge.startBundle(bundle.buffer, configJson, engine, init?.toNative())
+            return FpbpEngine(h, engine)
+        }
+
         /** Names [start] accepts. */
         @JvmStatic
         fun engineNames(): List<String> = NativeBridge.engineNames().split(',').filter { it.isNotEmpty() }

@@ -67,6 +67,24 @@ object NativeBridge {
         fingerprintsJson: String?,
     ): Long
 
+    /**
+     * Starts [engine] from a site bundle (`fpbp bundle`, docs/formats.md
+     * "Site bundle") in the direct buffer [bundle] (its whole capacity; pass
+     * a `slice()`): the site, its plans and the radio map (for `tcpf` and
+     * `scan-knn`) are read from it in place. [configJson] and [init] as in
+     * [start]. Throws [IllegalArgumentException] for a heap buffer or a bad
+     * bundle, naming the field or entry at fault.
+     */
+    @JvmStatic external fun startBundle(
+        bundle: java.nio.ByteBuffer,
+        configJson: String,
+        engine: String,
+        init: DoubleArray?,
+    ): Long
+
+    /** The text of site.json in the direct buffer [bundle], after checking the whole bundle. */
+    @JvmStatic external fun bundleSiteJson(bundle: java.nio.ByteBuffer): String
+
     /** Forgets [handle]; throws [IllegalStateException] if it is not live. */
     @JvmStatic external fun stop(handle: Long)
 
@@ -139,20 +157,4 @@ object NativeBridge {
 
     /** Engine names [start] accepts, comma-separated. */
     @JvmStatic external fun engineNames(): String
-
-    /** Panics inside the native library on purpose (tests: the panic must surface as [FpbpNativeException]). */
-    @JvmStatic external fun selfTestPanic()
-
-    /**
-     * Test hook: starts a test double (not an engine) whose every task run
-     * waits at the self-test gate while it is closed ([selfTestGate]).
-     * Nothing but tests calls it.
-     */
-    @JvmStatic external fun selfTestStartBlocking(): Long
-
-    /** Test hook: opens or closes the self-test gate. */
-    @JvmStatic external fun selfTestGate(open: Boolean)
-
-    /** Test hook: task runs waiting at the self-test gate now. */
-    @JvmStatic external fun selfTestBlockedTasks(): Int
 }

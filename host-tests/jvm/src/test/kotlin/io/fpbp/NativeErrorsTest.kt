@@ -80,7 +80,7 @@ class NativeErrorsTest {
 
     @Test
     fun aPanicBecomesFpbpNativeExceptionAndTheLibraryKeepsWorking() {
-        val e = assertThrows<FpbpNativeException> { NativeBridge.selfTestPanic() }
+        val e = assertThrows<FpbpNativeException> { NativeSelfTest.selfTestPanic() }
         assertMessage(e, "selfTestPanic", "self-test panic")
         TestSupport.startOpen().use { assertTrue(it.statsJson().contains("\"sensor_events\":0")) }
     }

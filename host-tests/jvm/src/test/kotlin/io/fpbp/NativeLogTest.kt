@@ -10,7 +10,7 @@ import java.io.StringReader
 import java.util.Random
 import java.util.concurrent.TimeUnit
 
-/** The Kotlin native-log writer (used by the app's recorder) against the Rust reader. */
+/** The Kotlin native-log writer (used by the app's recorder and the survey) against the Rust reader and writer. */
 class NativeLogTest {
     private fun randomEvents(seed: Long, n: Int): List<LogEvent> {
         val r = Random(seed)
@@ -19,7 +19,7 @@ class NativeLogTest {
         fun d() = r.nextGaussian() * 10.0.let { Math.pow(it, (r.nextInt(9) - 4).toDouble()) }
         return List(n) {
             t += r.nextInt(5_000_000)
-            when (r.nextInt(9)) {
+            when (r.nextInt(10)) {
                 0 -> LogEvent.Sensor(t, 1, doubleArrayOf(f(), f(), f()))
                 1 -> LogEvent.Sensor(t, 4, doubleArrayOf(d(), d(), d()))
                 2 -> LogEvent.Sensor(t, 2, doubleArrayOf(f(), f(), f()))
@@ -28,7 +28,16 @@ class NativeLogTest {
                 5 -> LogEvent.Sensor(t, 6, doubleArrayOf(1013.25 + f()))
                 6 -> LogEvent.Ble(t, "ibeacon:FDA50693-A4E2-4FB1-AFCF-C6EB07647825:1:${r.nextInt(65536)}", -40.0 - r.nextInt(60), if (r.nextBoolean()) -59.0 else null)
                 7 -> LogEvent.Gnss(t, 49.0 + r.nextDouble(), 11.0 + r.nextDouble(), if (r.nextBoolean()) d() else null, 5.0, null, d())
-                else -> LogEvent.Truth(t, d(), d(), if (r.nextBoolean()) -1 else null)
+                8 -> LogEvent.Truth(t, d(), d(), if (r.nextBoolean()) -1 else null)
+                // a WiFi scan (v2): 0-5 results, each last seen up to 3 s before it
+                else -> LogEvent.Wifi(
+                    t,
+                    List(r.nextInt(6)) {
+                        val mac = List(6) { "%02x".format(r.nextInt(256)) }.joinToString(":")
+                        val freq = if (r.nextBoolean()) 2412 + 5 * r.nextInt(13) else 5180 + 20 * r.nextInt(8)
+                        WifiResult(mac, -30.0 - r.nextInt(65), freq, t - r.nextInt(3_000_000))
+                    },
+                )
             }
         }
     }

@@ -18,19 +18,19 @@ class NonBlockingReadsTest {
 
     @AfterEach
     fun tearDown() {
-        NativeBridge.selfTestGate(true)
+        NativeSelfTest.selfTestGate(true)
         pool.shutdownNow()
     }
 
     @Test
     fun readsReturnWhileATaskIsBlocked() {
-        val h = NativeBridge.selfTestStartBlocking()
+        val h = NativeSelfTest.selfTestStartBlocking()
         try {
-            NativeBridge.selfTestGate(false)
+            NativeSelfTest.selfTestGate(false)
             val task = pool.submit { NativeBridge.runFusion(h, 42) }
             val deadline = System.nanoTime() + TimeUnit.SECONDS.toNanos(20)
-            while (NativeBridge.selfTestBlockedTasks() < 1 && System.nanoTime() < deadline) Thread.sleep(1)
-            assertEquals(1, NativeBridge.selfTestBlockedTasks(), "the task never reached the gate")
+            while (NativeSelfTest.selfTestBlockedTasks() < 1 && System.nanoTime() < deadline) Thread.sleep(1)
+            assertEquals(1, NativeSelfTest.selfTestBlockedTasks(), "the task never reached the gate")
 
             val out = DoubleArray(NativeBridge.POSE_LEN)
             val t = LongArray(1)
@@ -44,20 +44,20 @@ class NonBlockingReadsTest {
                 )
             }
             val r = reads.get(20, TimeUnit.SECONDS) // throws TimeoutException if a read waited for the task
-            assertEquals(1, NativeBridge.selfTestBlockedTasks(), "the task finished before the reads: nothing shown")
+            assertEquals(1, NativeSelfTest.selfTestBlockedTasks(), "the task finished before the reads: nothing shown")
             assertEquals(true, r[0])
             assertEquals(1L, r[1], "the pose published before the blocked task")
             assertEquals(true, r[2])
             assertTrue((r[3] as String).contains("self-test-blocking"))
             assertEquals(100_000_000L, r[4])
 
-            NativeBridge.selfTestGate(true)
+            NativeSelfTest.selfTestGate(true)
             task.get(20, TimeUnit.SECONDS)
             assertTrue(NativeBridge.getPose(h, out, t))
             assertEquals(42L, t[0], "the pose after the task")
             assertEquals(1.0, out[NativeBridge.POSE_X_M])
         } finally {
-            NativeBridge.selfTestGate(true)
+            NativeSelfTest.selfTestGate(true)
             NativeBridge.stop(h)
         }
     }

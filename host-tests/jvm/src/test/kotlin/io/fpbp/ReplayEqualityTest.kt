@@ -80,6 +80,13 @@ class ReplayEqualityTest {
                     is LogEvent.Sensor -> e.onSensor(ev.sensorType, ev.tNs, ev.values)
                     is LogEvent.Ble -> e.onBleScan(ev.tNs, ev.beaconId, ev.rssiDbm, ev.txPowerDbm)
                     is LogEvent.Gnss -> e.onGnss(ev.tNs, ev.latDeg, ev.lonDeg, ev.altM, ev.accuracyM, ev.speedMps, ev.bearingDeg)
+                    is LogEvent.Wifi -> e.onWifiScan(
+                        ev.tNs,
+                        Array(ev.results.size) { ev.results[it].bssid },
+                        DoubleArray(ev.results.size) { ev.results[it].rssiDbm },
+                        IntArray(ev.results.size) { ev.results[it].freqMhz },
+                        LongArray(ev.results.size) { ev.results[it].seenTNs },
+                    )
                     is LogEvent.Truth -> Unit // never given to the engine
                 }
             }

@@ -9,6 +9,7 @@ import android.graphics.Paint
 import android.view.MotionEvent
 import android.view.View
 import io.fpbp.Pose
+import io.fpbp.SurveyMark
 import kotlin.math.cos
 import kotlin.math.min
 import kotlin.math.sin
@@ -18,7 +19,9 @@ import kotlin.math.sin
  * a heading tick and its accuracy circle when the pose is on that floor.
  * Map frame (MCS, metres, y up) to plan pixels (ICS, y down): x_I = x r,
  * y_I = H - y r (FP-BP eq. 23), then the view's fit transform. A tap reports
- * the MCS point under the finger.
+ * the MCS point under the finger. In a survey it also draws the waypoint
+ * marks of the shown floor and the walked track between consecutive marks
+ * (the straight lines `fpbp calibrate` places the readings on).
  */
 class FloorPlanView(context: Context) : View(context) {
     private var plan: Bitmap? = null
@@ -48,6 +51,24 @@ class FloorPlanView(context: Context) : View(context) {
         color = Color.rgb(25, 118, 210)
         style = Paint.Style.STROKE
         strokeWidth = 3f
+    }
+
+    private var marks: List<SurveyMark> = emptyList()
+    private val trackPaint = Paint(Paint.ANTI_ALIAS_FLAG).apply {
+        color = Color.rgb(46, 125, 50)
+        style = Paint.Style.STROKE
+        strokeWidth = 4f
+    }
+    private val markPaint = Paint(Paint.ANTI_ALIAS_FLAG).apply { color = Color.rgb(46, 125, 50) }
+    private val lastMarkPaint = Paint(Paint.ANTI_ALIAS_FLAG).apply { color = Color.rgb(198, 40, 40) }
+
+    /** Marks drawn on the shown floor (in order; the last one highlighted). */
+    val marksDrawn: Int get() = marks.count { it.floor == floorId }
+
+    /** Updates the survey's waypoint marks (the walked track); call on the UI thread. */
+    fun setMarks(marks: List<SurveyMark>) {
+        this.marks = marks
+        invalidate()
     }
 
     /** Shows [bitmap], the plan of [floor] at [pixelsPerMeter] pixels per metre. */
@@ -83,6 +104,7 @@ class FloorPlanView(context: Context) : View(context) {
         fit.postTranslate((width - bmp.width * s) / 2f, (height - bmp.height * s) / 2f)
         fit.invert(inverse)
         canvas.drawBitmap(bmp, fit, null)
+        drawMarks(canvas)
         blePosition?.takeIf { it.floor == floorId }?.let { b ->
             val p = toPlanPx(b.xM, b.yM)
             canvas.drawCircle(p[0], p[1], 8f, bleDot)
@@ -96,6 +118,25 @@ class FloorPlanView(context: Context) : View(context) {
         // Heading: MCS angle, y up; the screen's y is down.
         val len = 36f
         canvas.drawLine(c[0], c[1], c[0] + len * cos(p.headingRad).toFloat(), c[1] - len * sin(p.headingRad).toFloat(), ring)
+    }
+
+    private fun drawMarks(canvas: Canvas) {
+        var prev: SurveyMark? = null
+        for (m in marks) {
+            val p = prev
+            if (p != null && p.floor == floorId && m.floor == floorId) {
+                val a = toPlanPx(p.xM, p.yM)
+                val b = toPlanPx(m.xM, m.yM)
+                canvas.drawLine(a[0], a[1], b[0], b[1], trackPaint)
+            }
+            prev = m
+        }
+        val last = marks.lastOrNull()
+        for (m in marks) {
+            if (m.floor != floorId) continue
+            val c = toPlanPx(m.xM, m.yM)
+            canvas.drawCircle(c[0], c[1], if (m === last) 10f else 6f, if (m === last) lastMarkPaint else markPaint)
+        }
     }
 
     override fun onTouchEvent(event: MotionEvent): Boolean {

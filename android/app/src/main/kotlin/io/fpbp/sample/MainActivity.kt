@@ -162,6 +162,7 @@ class MainActivity : Activity() {
             addView(floorButton)
             addView(recordButton)
             addView(shareButton)
+            addView(surveyButton())
         }
         setContentView(
             LinearLayout(this).apply {
@@ -173,6 +174,16 @@ class MainActivity : Activity() {
             },
         )
         planView.onTap = { x, y -> onTap(x, y) }
+    }
+
+    /** Opens the survey screen (SurveyActivity) on the same site. */
+    private fun surveyButton() = Button(this).apply {
+        text = "Survey"
+        setOnClickListener {
+            val open = Intent(this@MainActivity, SurveyActivity::class.java)
+            intent?.getStringExtra(EXTRA_SITE_DIR)?.let { open.putExtra(SurveyActivity.EXTRA_SITE_DIR, it) }
+            startActivity(open)
+        }
     }
 
     /** Reads the site (the demo site is first copied from the assets); runs off the main thread. */

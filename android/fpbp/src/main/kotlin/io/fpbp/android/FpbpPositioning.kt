@@ -30,6 +30,7 @@ import io.fpbp.PoseSubscription
 import io.fpbp.Problem
 import io.fpbp.Radio
 import io.fpbp.RadioPermissions
+import io.fpbp.SiteBundle
 import io.fpbp.Reaper
 import io.fpbp.SiteGeo
 import io.fpbp.Status
@@ -85,8 +86,40 @@ class FpbpPositioning @JvmOverloads constructor(
     site: Site,
     options: Options = Options(),
 ) : AutoCloseable {
-    /** A site: the text of site.json and the directory its plan paths are relative to. */
-    data class Site(val json: String, val dir: String)
+    /**
+     * A site: the text of site.json and the directory its plan paths are
+     * relative to, with the radio map's JSON ([radioMapJson], `fpbp calibrate
+     * --radio-map`; null = the site's path-loss models); or a site bundle
+     * ([fromBundle]: site, plans and radio map in one file, read in place).
+     */
+    data class Site @JvmOverloads constructor(
+        val json: String,
+        val dir: String,
+        val radioMapJson: String? = null,
+        val bundle: SiteBundle? = null,
+    ) {
+        init {
+            require(bundle == null || radioMapJson == null) { "a bundle carries its own radio map" }
+        }
+
+        companion object {
+            /** The site of a bundle (`fpbp bundle`); its radio map reaches the engine. */
+            @JvmStatic
+            fun fromBundle(bundle: SiteBundle): Site = Site(bundle.siteJson, "", null, bundle)
+
+            /** The site of the bundle file [file], mapped read-only. */
+            @JvmStatic
+            fun fromBundle(file: java.io.File): Site = fromBundle(SiteBundle.fromFile(file))
+        }
+
+        /** Starts [engine] on this site with its radio map (what [FpbpPositioning.start] does). */
+        fun startEngine(engine: String, configJson: String, init: InitialPosition?): FpbpEngine =
+            if (bundle != null) {
+                FpbpEngine.startBundle(bundle, engine, configJson, init)
+            } else {
+                FpbpEngine.start(json, dir, engine, configJson, init, radioMapJson)
+            }
+    }
 
     /**
      * @property engine engine name ([FpbpDefaults.ENGINE] by default).
@@ -484,7 +517,7 @@ private class PositioningCore(
         check(closing.get() == null) { "FpbpPositioning is closed" }
         if (engine != null) return@onControlAsync
         try {
-            val e = FpbpEngine.start(site.json, site.dir, options.engine, options.configJson, options.initialPosition)
+            val e = site.startEngine(options.engine, options.configJson, options.initialPosition)
             engine = e
             input = Executors.newSingleThreadExecutor { r -> Thread(r, "fpbp-input").apply { isDaemon = true } }
             tasks = newTasks(e)

@@ -21,8 +21,11 @@ import io.fpbp.StatusTracker
  * the background ([StartLimiter]); a refused or throttled start only waits
  * for the next passive results. With the developer option "WiFi scan
  * throttling" off, the system allows more; the limiter still holds to 4 per
- * 2 min so a phone behaves like a user's. Needs ACCESS_FINE_LOCATION (and
- * NEARBY_WIFI_DEVICES on 13+) and location services on.
+ * 2 min so a phone behaves like a user's. A survey ([FpbpSurvey]) asks
+ * every [periodMs] without the limiter ([limited] false): with throttling
+ * off the phone scans that often, with it on the refused starts cost
+ * nothing. Needs ACCESS_FINE_LOCATION (and NEARBY_WIFI_DEVICES on 13+) and
+ * location services on.
  *
  * Runs on [handler]'s thread.
  */
@@ -32,6 +35,8 @@ internal class WifiSource(
     private val clock: Clock,
     private val status: StatusTracker,
     private val onStatusChanged: () -> Unit,
+    private val periodMs: Long = SCAN_PERIOD_MS,
+    private val limited: Boolean = true,
     private val sink: (tNs: Long, bssids: Array<String?>, rssiDbm: DoubleArray, freqMhz: IntArray, seenTNs: LongArray) -> Unit,
 ) {
     companion object {
@@ -66,7 +71,7 @@ internal class WifiSource(
         override fun run() {
             if (!wanted) return
             requestScan()
-            handler.postDelayed(this, SCAN_PERIOD_MS)
+            handler.postDelayed(this, periodMs)
         }
     }
 
@@ -104,7 +109,7 @@ internal class WifiSource(
             return
         }
         val limiter = if (foreground) foregroundLimiter else backgroundLimiter
-        if (!limiter.tryStart()) return // passive results still arrive
+        if (limited && !limiter.tryStart()) return // passive results still arrive
         if (w.startScan()) requested++
     }
 

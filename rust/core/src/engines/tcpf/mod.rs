@@ -970,7 +970,8 @@ impl TcpfEngine {
             self.cfg.converged_spread_hi_m,
         );
         let spread_before = self.pf.spread_m();
-        let mean_before = self.pf.mean();
+        // the cloud's mean before the update: only the integrity check reads it
+        let mean_before = self.integrity.is_active().then(|| self.pf.mean()).flatten();
         let g = ((spread_before - lo) / (hi - lo)).clamp(0.0, 1.0);
         // the radio's trust tempers its weights (1 unless `integrity`)
         let trust = self.integrity.trust();
@@ -1127,20 +1128,21 @@ impl TcpfEngine {
             // the re-seeding would move the cloud toward the surface's
             // mean: beyond what the walk allows, the radio is not
             // followed there (`integrity`), and the refused pull counts
-            let wsum: f64 = surf.w.iter().sum();
-            let toward = surf
-                .cells
-                .iter()
-                .zip(&surf.w)
-                .fold(Vec2::zeros(), |s, (c, w)| {
-                    s + c * (*w / wsum.max(f64::MIN_POSITIVE))
-                });
-            let cloud_at = self.pf.mean().unwrap_or(toward);
-            if self.integrity.is_active()
-                && (toward - cloud_at).norm()
-                    > self.integrity.allowed_m(&self.cfg.integrity, spread_before)
-            {
-                self.integrity.refuse((toward - cloud_at) * reseed);
+            let refused = self.integrity.is_active().then(|| {
+                let wsum: f64 = surf.w.iter().sum();
+                let toward = surf
+                    .cells
+                    .iter()
+                    .zip(&surf.w)
+                    .fold(Vec2::zeros(), |s, (c, w)| {
+                        s + c * (*w / wsum.max(f64::MIN_POSITIVE))
+                    });
+                toward - self.pf.mean().unwrap_or(toward)
+            });
+            if let Some(pull) = refused.filter(|pull| {
+                pull.norm() > self.integrity.allowed_m(&self.cfg.integrity, spread_before)
+            }) {
+                self.integrity.refuse(pull * reseed);
                 self.counts.reseed_untrusted += 1;
             } else {
                 self.pf.resample();

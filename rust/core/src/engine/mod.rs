@@ -147,14 +147,6 @@ pub struct EngineStats {
     pub radio_trust: Option<f64>,
 }
 
-impl EngineStats {
-    /// Counts one WiFi scan and its results.
-    pub fn count_wifi(&mut self, scan: &WifiScan) {
-        self.wifi_scans += 1;
-        self.wifi_results += scan.results.len() as u64;
-    }
-}
-
 /// A positioning algorithm behind the common interface.
 ///
 /// Recording calls (`on_sensor`, `on_ble`, `on_gnss`, `on_wifi`) never fail:

@@ -1789,7 +1789,6 @@ impl Engine for TcpfEngine {
     }
 
     fn on_sensor(&mut self, event: &SensorEvent) {
-        self.stats.sensor_events += 1;
         if let SensorData::Pressure(p) = event.data
             && p.is_finite()
         {
@@ -1808,7 +1807,6 @@ impl Engine for TcpfEngine {
     }
 
     fn on_ble(&mut self, obs: &BleObservation) {
-        self.stats.ble_observations += 1;
         if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
             self.stats.rejected_inputs += 1;
             return;
@@ -1834,7 +1832,6 @@ impl Engine for TcpfEngine {
     }
 
     fn on_wifi(&mut self, scan: &WifiScan) {
-        self.stats.count_wifi(scan);
         let max_age = (self.cfg.wifi_max_age_s * 1e9) as i64;
         self.wifi_active = true;
         for r in &scan.results {

@@ -28,6 +28,17 @@ struct Column {
     carried: bool,
 }
 
+/// Read access to a cloud's columns ([`Cloud::parts_for_weighting`]).
+#[derive(Debug, Clone, Copy)]
+pub struct Columns<'a>(&'a [Column]);
+
+impl<'a> Columns<'a> {
+    /// The values of column `c` (empty = none).
+    pub fn get(&self, c: usize) -> &'a [f64] {
+        &self.0[c].values
+    }
+}
+
 /// Particles (positions in the MCS, weights, state columns) and reused
 /// scratch buffers.
 #[derive(Debug, Clone, Default)]
@@ -237,6 +248,12 @@ impl Cloud {
             &mut head[head.len() - 1].values[..]
         });
         (&mut self.positions, cols)
+    }
+
+    /// Positions and columns to read, and the weights to write, at once
+    /// (a measurement update that uses per-particle state).
+    pub fn parts_for_weighting(&mut self) -> (&[Vec2], Columns<'_>, &mut [f64]) {
+        (&self.positions, Columns(&self.columns), &mut self.weights)
     }
 
     /// Normalises the weights to sum 1 (uniform when they are all zero or not finite).

@@ -19,6 +19,12 @@
 //!   sigma_LOS), A_j ~ 1/|delta_j|, and P2 = normpdf(alpha_i, alpha,
 //!   sigma_alpha) (only when the user walked); the best particle is the
 //!   position (eq. 23).
+//!
+//! PPSA is a select-the-best sampler, not a recursive particle filter: the
+//! candidates are drawn afresh each slot (no motion model propagates them,
+//! no weights carry over, nothing is resampled), so it uses only the shared
+//! draws ([`crate::fusion::random::in_disc`], the walkable sampling of
+//! `prox-pf`), not the [`crate::fusion::Cloud`].
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -33,6 +39,7 @@ use crate::ble::pathloss::{horizontal_m, range_m};
 use crate::ble::{BleFrontEnd, FilteredBeacon};
 use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
 use crate::events::{BleObservation, SensorEvent};
+use crate::fusion::random::in_disc;
 use crate::geometry::wrap_angle;
 use crate::pdr::Pdr;
 use crate::site::Site;
@@ -349,12 +356,7 @@ impl PpsaEngine {
         for _ in 0..self.cfg.n_particles {
             let p = match map {
                 Some(m) => sample_walkable(&mut self.rng, m, Some((centre, radius)), 1),
-                None => {
-                    use rand::RngExt;
-                    let rho = radius * self.rng.random::<f64>().sqrt();
-                    let th = std::f64::consts::TAU * self.rng.random::<f64>();
-                    Some(centre + Vec2::new(rho * th.cos(), rho * th.sin()))
-                }
+                None => Some(in_disc(&mut self.rng, centre, radius)),
             };
             out.extend(p);
         }

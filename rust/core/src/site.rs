@@ -746,6 +746,9 @@ pub(crate) mod json_path {
     }
 }
 
+#[cfg(feature = "fs")]
+pub mod files;
+
 #[cfg(test)]
 mod tests;
 

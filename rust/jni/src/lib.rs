@@ -568,7 +568,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_engineNames<'l>(
     entry(&mut env, "engineNames", |env| {
         Ok(JString::from_str(
             env,
-            fpbp_core::engine::ENGINE_NAMES.join(","),
+            fpbp_core::engines::ENGINE_NAMES.join(","),
         )?)
     })
 }

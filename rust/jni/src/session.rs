@@ -5,9 +5,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 use fpbp_core::Vec2;
-use fpbp_core::engine::{
-    Engine, EngineConfig, EngineData, EngineStats, InitialPosition, Pose, Task, build_engine_with,
-};
+use fpbp_core::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::events::{BleObservation, GnssFix, SensorData, SensorEvent, WifiResult, WifiScan};
 use fpbp_core::site::GeoRef;
 
@@ -179,10 +178,10 @@ impl Session {
 
     /// Checks the engine name and parses the config (empty text = defaults).
     fn config_for(config_json: &str, engine: &str) -> Result<EngineConfig, BridgeError> {
-        if !fpbp_core::engine::ENGINE_NAMES.contains(&engine) {
+        if !fpbp_core::engines::ENGINE_NAMES.contains(&engine) {
             return Err(fpbp_core::Error::UnknownEngine(
                 engine.to_string(),
-                fpbp_core::engine::ENGINE_NAMES.join(", "),
+                fpbp_core::engines::ENGINE_NAMES.join(", "),
             )
             .into());
         }
@@ -753,7 +752,7 @@ mod tests {
 
     #[test]
     fn bad_config_names_the_field() {
-        let engine = fpbp_core::engine::ENGINE_NAMES
+        let engine = fpbp_core::engines::ENGINE_NAMES
             .first()
             .copied()
             .unwrap_or("fpbp");

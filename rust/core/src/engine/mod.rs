@@ -8,19 +8,17 @@
 //! nominal periods by the log's clock, so a replay is deterministic.
 
 pub mod config;
-pub mod factory;
 pub mod inputs;
 pub mod replay;
+pub mod start;
 
 use serde::{Deserialize, Serialize};
 
 use crate::events::{BleObservation, GnssFix, SensorEvent, WifiScan};
 
-pub use config::{EngineConfig, TaskConfig};
-pub use factory::{
-    ENGINE_NAMES, EngineData, build_engine, build_engine_with, check_initial_position,
-};
+pub use config::TaskConfig;
 pub use inputs::CountedInputs;
+pub use start::check_initial_position;
 
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
@@ -152,7 +150,7 @@ pub struct EngineStats {
 /// Recording calls (`on_sensor`, `on_ble`, `on_gnss`, `on_wifi`) never fail:
 /// bad samples are counted in [`EngineStats`]. An input an engine does not
 /// use is ignored (the defaults); [`CountedInputs`], which every engine from
-/// [`build_engine`] is wrapped in, counts the inputs handed to it. Engines
+/// [`crate::engines::build_engine`] is wrapped in, counts the inputs handed to it. Engines
 /// own their RNGs, seeded from the config, so the same inputs give the same
 /// poses.
 pub trait Engine: Send {

@@ -10,7 +10,8 @@ use std::sync::Arc;
 use crate::Result;
 use crate::Vec2;
 use crate::ble::{BeaconRegistry, BleFrontEnd, BleTask, PositionerKind};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent, WifiScan};
 use crate::site::{BeaconSpec, Site};
 use crate::wifi::FreshResults;
@@ -235,8 +236,8 @@ impl Engine for BleOnlyEngine {
 mod tests {
     use super::*;
     use crate::ble::pathloss::{PathLoss, range_m};
-    use crate::engine::build_engine;
     use crate::engine::replay::replay;
+    use crate::engines::build_engine;
     use crate::events::{LogEvent, TruthPoint};
     use crate::site::testkit::{beacon_site, open_map};
 

@@ -23,7 +23,8 @@ use std::sync::Arc;
 
 use crate::Vec2;
 use crate::ble::{BleTask, PositionerKind, task::BleFix};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
 use crate::fusion::{FusionConfig, ParticleFilter, PpcCase, ppc};
@@ -787,7 +788,7 @@ mod tests {
     fn engine_set_position_clears_the_old_ble_fix() {
         for name in ["fpbp", "bp"] {
             let mut e =
-                crate::engine::build_engine(name, corridor_site(), &EngineConfig::default(), None)
+                crate::engines::build_engine(name, corridor_site(), &EngineConfig::default(), None)
                     .unwrap();
             assert!(e.pose().is_none());
             let at = InitialPosition {

@@ -9,7 +9,8 @@
 
 use std::sync::Arc;
 
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::SensorEvent;
 use crate::pdr::Pdr;
 use crate::site::Site;

@@ -28,7 +28,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::ble::proximity::{Proximity, ProximityConfig, near_probability};
 use crate::ble::{BleFrontEnd, FilteredBeacon};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::map::{Feature, FloorMap};
 use crate::pdr::Pdr;
@@ -665,8 +666,8 @@ mod tests {
     use super::testkit::*;
     use super::*;
     use crate::ble::pathloss::PathLoss;
-    use crate::engine::build_engine;
     use crate::engine::replay::{ReplayOutput, replay};
+    use crate::engines::build_engine;
     use crate::events::LogEvent;
 
     fn near_beacon(x: f64, y: f64) -> FilteredBeacon {

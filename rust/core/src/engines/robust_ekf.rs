@@ -24,7 +24,8 @@ use crate::Result;
 use crate::Vec2;
 use crate::ble::{BleConfig, BleFrontEnd};
 use crate::engine::Task as T;
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fingerprint::{FingerprintSet, wknn};
 use crate::floor::FloorTracker;
@@ -349,8 +350,8 @@ impl Engine for RobustEkfEngine {
 mod tests {
     use super::*;
     use crate::ble::pathloss::{PathLoss, range_m};
-    use crate::engine::build_engine;
     use crate::engine::replay::replay;
+    use crate::engines::build_engine;
     use crate::events::SensorData;
     use crate::events::{GnssFix, LogEvent, TruthPoint};
     use crate::site::testkit::{beacon_site, open_map};
@@ -729,7 +730,7 @@ mod tests {
 
     #[test]
     fn survey_database_is_used_when_given() {
-        use crate::engine::{EngineData, build_engine_with};
+        use crate::engines::{EngineData, build_engine_with};
         use crate::fingerprint::SurveyBuilder;
         use crate::fingerprint::survey::tests as st;
         let site = st::site();

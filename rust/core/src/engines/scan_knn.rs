@@ -12,7 +12,8 @@
 
 use std::sync::Arc;
 
-use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
+use crate::engine::{Engine, EngineStats, Pose, PoseSource, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, WifiScan};
 use crate::radio::RadioModel;
 use crate::radio::reference_scans::{CandidateFix, ScanMetric, ScanTrail, candidate_fix};

@@ -44,7 +44,8 @@ pub use step_scale::{OnlineStep, OnlineStepConfig};
 
 use crate::Result;
 use crate::Vec2;
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, PoseSource, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, PoseSource, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
 use crate::fast_math::{exp_many, fast_exp, max_many};
 use crate::floor::FloorTracker;

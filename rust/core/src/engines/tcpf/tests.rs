@@ -3,8 +3,8 @@
 //! determinism, set_position.
 
 use super::*;
-use crate::engine::build_engine;
 use crate::engine::replay::{ReplayOutput, replay};
+use crate::engines::build_engine;
 use crate::engines::prox_pf::testkit::{MODEL, beacons, site, walk_north, walled_map};
 use crate::events::LogEvent;
 

@@ -7,14 +7,15 @@ use std::sync::Arc;
 
 use fpbp_core::Vec2;
 use fpbp_core::engine::replay::{ReplayOutput, replay};
-use fpbp_core::engine::{EngineConfig, Pose, build_engine, track_segment_crosses_wall};
+use fpbp_core::engine::{Pose, track_segment_crosses_wall};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
 
 fn demo_site() -> Arc<Site> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_cli::site_io::load_site(&path).unwrap()
+    fpbp_core::site::files::load_site(&path).unwrap()
 }
 
 fn run(site: &Arc<Site>, events: &[LogEvent], seed: u64) -> ReplayOutput {

@@ -16,7 +16,7 @@ use fpbp_sim::{SimProfile, SimRequest, simulate};
 
 fn demo_site() -> Arc<Site> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_cli::site_io::load_site(&path).unwrap()
+    fpbp_core::site::files::load_site(&path).unwrap()
 }
 
 /// (median |heading error| deg, walked-distance ratio) of one simulated walk.

@@ -2,11 +2,11 @@
 //! (geojson_map.json + floor_info.json) as an fpbp site with a stylized plan
 //! in the waypoints' frame. See docs/sites.md for the rule and the checks.
 
-use crate::import_geojson::{IlcFrame, parse_features};
-use crate::import_raster::{
+use crate::geojson::{IlcFrame, parse_features};
+use crate::raster::{
     CORRIDOR, Grid, LabelGrid, OUTSIDE, UnitKind, floor_map, wall_crossings, write_plan_png,
 };
-use crate::import_truth::{ilc_waypoints, list_files};
+use crate::truth::{ilc_waypoints, list_files};
 use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
 use fpbp_core::map::Feature;
@@ -15,20 +15,21 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `fpbp import ilc`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct IlcImport {
     /// An ILC floor folder: geojson_map.json, floor_info.json, optionally
     /// floor_image.png and path_data_files/ (used for the checks only).
     pub floor_dir: PathBuf,
     /// Output folder: site.json, plan.png, import_report.json.
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
     /// Resolution r of the generated plan, pixels per metre.
-    #[arg(long, default_value_t = DEFAULT_PIXELS_PER_METER)]
+    #[cfg_attr(feature = "cli", arg(long, default_value_t = DEFAULT_PIXELS_PER_METER))]
     pub pixels_per_meter: f64,
     /// Floor id written to the site (default: from the folder name, F4 -> 4,
     /// B1 -> -1, else 0).
-    #[arg(long, allow_hyphen_values = true)]
+    #[cfg_attr(feature = "cli", arg(long, allow_hyphen_values = true))]
     pub floor_id: Option<i32>,
 }
 
@@ -111,13 +112,6 @@ pub struct WaypointCheck {
     pub crossings_per_100m: f64,
 }
 
-/// `fpbp import ilc`.
-pub fn run(args: Args) -> Result<()> {
-    let report = import(&args)?;
-    println!("{}", serde_json::to_string_pretty(&report)?);
-    Ok(())
-}
-
 /// Floor id from an ILC folder name: F4 -> 4, B2 -> -2, else 0.
 fn floor_id_from_dir(dir: &Path) -> i32 {
     let name = dir
@@ -166,7 +160,7 @@ pub fn unit_kind(name: &str) -> UnitKind {
 }
 
 /// Imports one ILC floor; writes site.json, plan.png, import_report.json.
-pub fn import(args: &Args) -> Result<IlcReport> {
+pub fn import(args: &IlcImport) -> Result<IlcReport> {
     let r = args.pixels_per_meter;
     if !(r.is_finite() && (0.5..=100.0).contains(&r)) {
         bail!("--pixels-per-meter {r}: want 0.5..=100");
@@ -468,7 +462,7 @@ mod tests {
         )
         .unwrap();
         let out = dir.parent().unwrap().join("site");
-        let rep = import(&Args {
+        let rep = import(&IlcImport {
             floor_dir: dir.clone(),
             out: out.clone(),
             pixels_per_meter: 5.0,
@@ -516,7 +510,7 @@ mod tests {
             .unwrap()
             .replace("SHOP", "");
         std::fs::write(dir.join("geojson_map.json"), gj2).unwrap();
-        let rep = import(&Args {
+        let rep = import(&IlcImport {
             floor_dir: dir.clone(),
             out: out.clone(),
             pixels_per_meter: 5.0,
@@ -531,7 +525,7 @@ mod tests {
             r#"{"map_info":{"height":30.0,"width":40.0}}"#,
         )
         .unwrap();
-        let e = import(&Args {
+        let e = import(&IlcImport {
             floor_dir: dir.clone(),
             out,
             pixels_per_meter: 5.0,
@@ -553,7 +547,7 @@ mod tests {
         }
         let out = tmp("real");
         for (floor, id, paths) in [("site2/F4", 4, 26), ("site1/F1", 1, 106)] {
-            let rep = import(&Args {
+            let rep = import(&IlcImport {
                 floor_dir: data.join(floor),
                 out: out.join(floor),
                 pixels_per_meter: DEFAULT_PIXELS_PER_METER,
@@ -575,7 +569,8 @@ mod tests {
                 "{floor}: {w:?} (more than 2 %)"
             );
             // The site loads and validates with the project's loader (Site::build).
-            let site = crate::site_io::load_site(&out.join(floor).join("site.json")).unwrap();
+            let site =
+                fpbp_core::site::files::load_site(&out.join(floor).join("site.json")).unwrap();
             let map = site.floor(id).unwrap();
             assert_eq!(
                 (map.width_px(), map.height_px()),

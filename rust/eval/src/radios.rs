@@ -6,7 +6,8 @@
 use fpbp_core::events::LogEvent;
 
 /// A radio whose events can be left out of a replay.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Radio {
     Ble,

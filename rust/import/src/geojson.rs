@@ -5,7 +5,7 @@
 //! x = (lon - lon_min) k cos((lat_min + lat_max) / 2), y = (lat - lat_min) k,
 //! with k = pi / 180 * 6378137 m.
 
-use crate::import_raster::Polygon;
+use crate::raster::Polygon;
 use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
 use fpbp_core::geo::EARTH_RADIUS_M;

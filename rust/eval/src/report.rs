@@ -14,7 +14,8 @@ use fpbp_core::events::LogEvent;
 use fpbp_core::site::Site;
 use serde::Serialize;
 
-use crate::common::{EngineMetrics, InitMode, LoadedLog, LogRun};
+use crate::metrics::EngineMetrics;
+use crate::runner::{InitMode, LoadedLog, LogRun};
 
 /// `format` of every metrics.json fpbp writes.
 pub const METRICS_FORMAT: &str = "fpbp-metrics";
@@ -486,7 +487,7 @@ pub fn track_panel(site: &Site, name: &str, run: &LogRun, floor: i32) -> crate::
             q.poses,
             q.jumps,
             q.wall_crossings,
-            crate::common::fmt_opt(q.wall_crossings_per_100m, 1)
+            crate::metrics::fmt_opt(q.wall_crossings_per_100m, 1)
         ),
         points,
         jump,
@@ -563,7 +564,7 @@ mod tests {
     #[test]
     fn jumps_and_wall_crossings_count_segments() {
         // 30 x 10 m open floor at 2 px/m with a wall at x = 15 m
-        let site = crate::common::test_support::site();
+        let site = crate::testkit::site();
         let mut site = (*site).clone();
         let (w, h) = (60, 20);
         let f = (0..w * h)

@@ -3,11 +3,9 @@
 //! beacon count, spacing and height, path-loss figures). Written by
 //! `cargo run -p fpbp-cli --example make_replica_sites -- maps` into
 //! maps/replica-<paper>/; the walks and radio channel are the simulator
-//! profiles `replica-<paper>` (fpbp_sim::replica). Every choice the papers
+//! profiles `replica-<paper>` (crate::replica). Every choice the papers
 //! leave open is listed in docs/reproduction.md. Deterministic: the files
 //! are pinned by rust/cli/tests/replicas.rs.
-
-use std::path::Path;
 
 use anyhow::{Context, bail};
 use fpbp_core::Vec2;
@@ -222,9 +220,9 @@ pub fn fpbp() -> anyhow::Result<Replica> {
 
 /// The centre line of the proximity-PF walking course: 70 m with six turns
 /// (Momose et al., Sec. IV-A, Fig. 6), MCS metres; the replica walk's route
-/// (`fpbp_sim::replica`, profile `replica-prox-pf-1`) is the one source.
+/// (`crate::replica`, profile `replica-prox-pf-1`) is the one source.
 pub fn prox_pf_course() -> Vec<[f64; 2]> {
-    fpbp_sim::replica::replica_profile("replica-prox-pf-1")
+    crate::replica::replica_profile("replica-prox-pf-1")
         .map(|p| p.walk.waypoints_m)
         .unwrap_or_default()
 }
@@ -586,17 +584,4 @@ pub fn build(name: &str) -> anyhow::Result<Replica> {
         "tc" => tc(),
         other => bail!("unknown replica `{other}` (known: {})", REPLICAS.join(", ")),
     }
-}
-
-/// Writes replica `r` into `maps_dir/<r.dir>/` (plan.png, site.json).
-pub fn write(r: &Replica, maps_dir: &Path) -> anyhow::Result<()> {
-    let dir = maps_dir.join(&r.dir);
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    let plan = dir.join("plan.png");
-    r.plan
-        .save(&plan)
-        .with_context(|| format!("cannot write {}", plan.display()))?;
-    let site = dir.join("site.json");
-    std::fs::write(&site, r.spec.to_json_pretty() + "\n")
-        .with_context(|| format!("cannot write {}", site.display()))
 }

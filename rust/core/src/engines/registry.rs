@@ -1,10 +1,12 @@
-//! Builds an engine by name. Every engine the harness and JNI know is listed here.
+//! The engine registry: every engine the harness and JNI know, by name,
+//! and how each is built from the site, the config and its data.
 
 use std::sync::Arc;
 
+use super::EngineConfig;
 #[cfg(test)]
-use super::EngineStats;
-use super::{Engine, EngineConfig, InitialPosition};
+use crate::engine::EngineStats;
+use crate::engine::{CountedInputs, Engine, InitialPosition, check_initial_position};
 use crate::{Error, Result, site::Site};
 
 /// Names accepted by [`build_engine`], in the order `fpbp eval` lists them.
@@ -68,47 +70,6 @@ impl EngineData {
     }
 }
 
-/// Checks a start position against `site`: finite coordinates on a floor the
-/// site has, inside that floor's plan, and a finite heading when one is
-/// given. Every engine's start and `set_position` go through it.
-pub fn check_initial_position(site: &Site, at: &InitialPosition) -> Result<()> {
-    let bad =
-        |field: &str, msg: String| Err(Error::config(format!("initial_position.{field}"), msg));
-    if !(at.x_m.is_finite() && at.y_m.is_finite()) {
-        return bad(
-            "x_m",
-            format!("must be finite, got ({}, {})", at.x_m, at.y_m),
-        );
-    }
-    let Some(map) = site.floor(at.floor) else {
-        let ids: Vec<String> = site.spec.floors.iter().map(|f| f.id.to_string()).collect();
-        return bad(
-            "floor",
-            format!(
-                "no floor {} on the site (floors: {})",
-                at.floor,
-                ids.join(", ")
-            ),
-        );
-    };
-    let (w, h) = (map.width_m(), map.height_m());
-    if !(0.0..=w).contains(&at.x_m) || !(0.0..=h).contains(&at.y_m) {
-        return bad(
-            "x_m",
-            format!(
-                "({}, {}) m lies outside floor {}'s plan [0, {w:.2}] x [0, {h:.2}] m",
-                at.x_m, at.y_m, at.floor
-            ),
-        );
-    }
-    if let Some(hd) = at.heading_rad
-        && !hd.is_finite()
-    {
-        return bad("heading_rad", format!("must be finite, got {hd}"));
-    }
-    Ok(())
-}
-
 /// Builds engine `name` on `site`. `init` hands the engine a start position;
 /// without it the engine finds its own start (only `pdr` requires one).
 pub fn build_engine(
@@ -121,7 +82,7 @@ pub fn build_engine(
 }
 
 /// [`build_engine`] with extra data (engines that do not use it ignore it).
-/// The engine comes wrapped in [`super::CountedInputs`].
+/// The engine comes wrapped in [`CountedInputs`].
 pub fn build_engine_with(
     name: &str,
     site: Arc<Site>,
@@ -134,26 +95,24 @@ pub fn build_engine_with(
         check_initial_position(&site, at)?;
     }
     let engine: Box<dyn Engine> = if let Some(e) =
-        crate::engines::ble_only::BleOnlyEngine::new_wifi(name, site.clone(), config, init)
+        super::ble_only::BleOnlyEngine::new_wifi(name, site.clone(), config, init)
     {
         Box::new(e)
     } else if let Some(kind) = crate::ble::PositionerKind::from_name(name) {
-        Box::new(crate::engines::ble_only::BleOnlyEngine::new(
+        Box::new(super::ble_only::BleOnlyEngine::new(
             kind, site, config, init,
         ))
     } else {
         match name {
-            "fpbp" | "bp" => Box::new(crate::engines::fpbp::FpbpEngine::new(
+            "fpbp" | "bp" => Box::new(super::fpbp::FpbpEngine::new(
                 site,
                 config,
                 name == "fpbp",
                 init,
             )?),
             "tcpf" => Box::new(match &data.radio_map {
-                Some(m) => {
-                    crate::engines::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?
-                }
-                None => crate::engines::tcpf::TcpfEngine::new(site, config, init)?,
+                Some(m) => super::tcpf::TcpfEngine::with_model(site, config, init, m.clone())?,
+                None => super::tcpf::TcpfEngine::new(site, config, init)?,
             }),
             "scan-knn" => {
                 let model: Arc<dyn crate::radio::RadioModel> = match &data.radio_map {
@@ -166,25 +125,21 @@ pub fn build_engine_with(
                         ));
                     }
                 };
-                Box::new(crate::engines::scan_knn::ScanKnnEngine::new(config, model)?)
+                Box::new(super::scan_knn::ScanKnnEngine::new(config, model)?)
             }
-            "pdr" => Box::new(crate::engines::pdr::PdrEngine::new(site, config, init)?),
-            "prox-pf" => Box::new(crate::engines::prox_pf::ProxPfEngine::new(
-                site, config, init,
-            )?),
-            "ppsa" => Box::new(crate::engines::ppsa::PpsaEngine::new(site, config, init)?),
+            "pdr" => Box::new(super::pdr::PdrEngine::new(site, config, init)?),
+            "prox-pf" => Box::new(super::prox_pf::ProxPfEngine::new(site, config, init)?),
+            "ppsa" => Box::new(super::ppsa::PpsaEngine::new(site, config, init)?),
             "robust-ekf" => Box::new(match &data.fingerprints {
-                Some(fp) => crate::engines::robust_ekf::RobustEkfEngine::with_fingerprints(
+                Some(fp) => super::robust_ekf::RobustEkfEngine::with_fingerprints(
                     site,
                     config,
                     init,
                     fp.clone(),
                 )?,
-                None => crate::engines::robust_ekf::RobustEkfEngine::new(site, config, init)?,
+                None => super::robust_ekf::RobustEkfEngine::new(site, config, init)?,
             }),
-            "tc-ekf" => Box::new(crate::engines::tc_ekf::TcEkfEngine::new(
-                site, config, init,
-            )?),
+            "tc-ekf" => Box::new(super::tc_ekf::TcEkfEngine::new(site, config, init)?),
             _ => {
                 return Err(Error::UnknownEngine(
                     name.to_string(),
@@ -193,7 +148,7 @@ pub fn build_engine_with(
             }
         }
     };
-    Ok(Box::new(super::CountedInputs::new(engine)))
+    Ok(Box::new(CountedInputs::new(engine)))
 }
 
 #[cfg(test)]
@@ -201,7 +156,7 @@ mod tests {
     use super::*;
     use crate::engine::replay::replay;
     use crate::engines::prox_pf::testkit::{site, walk_north};
-    use crate::events::{LogEvent, WifiResult, WifiScan};
+    use crate::events::{BleObservation, LogEvent, SensorData, SensorEvent, WifiResult, WifiScan};
 
     fn scan(t_ns: i64, n: usize) -> LogEvent {
         LogEvent::Wifi(WifiScan {
@@ -273,7 +228,7 @@ mod tests {
             heading_rad: None,
         });
         // the WiFi engines use the scans (tests in engines::ble_only);
-        // scan-knn needs a radio map (tests in rust/cli/tests/tcpf_anchors.rs)
+        // scan-knn needs a radio map (tests in rust/core/tests/tcpf_anchors.rs)
         for name in ENGINE_NAMES
             .iter()
             .filter(|n| !n.starts_with("wifi-") && **n != "scan-knn")
@@ -296,5 +251,53 @@ mod tests {
             assert_eq!(a.track, b.track, "{name}");
             assert!(!a.track.is_empty(), "{name}: no pose at all");
         }
+    }
+
+    /// Guards that the wrapper counts every input it passes on, those the
+    /// engine ignores too (`pdr` uses neither BLE nor WiFi), and keeps the
+    /// engine's own counters: without it such inputs would go uncounted.
+    #[test]
+    fn counts_the_inputs_and_keeps_the_engines_own_counters() {
+        let at = InitialPosition {
+            x_m: 7.0,
+            y_m: 4.0,
+            floor: 0,
+            heading_rad: None,
+        };
+        let site = crate::engines::prox_pf::testkit::site();
+        let pdr =
+            crate::engines::pdr::PdrEngine::new(site, &EngineConfig::default(), Some(at)).unwrap();
+        let mut e = crate::engine::CountedInputs::new(Box::new(pdr));
+        for t in 0..3 {
+            e.on_sensor(&SensorEvent {
+                t_ns: t,
+                // a gyroscope sample with a NaN: the PDR's own rejection
+                data: SensorData::Gyroscope([f64::NAN, 0.0, 0.0]),
+            });
+        }
+        e.on_ble(&BleObservation {
+            t_ns: 5,
+            beacon_id: "b".into(),
+            rssi_dbm: -60.0,
+            tx_power_dbm: None,
+        });
+        let result = WifiResult {
+            bssid: "02:00:00:00:00:01".into(),
+            rssi_dbm: -70.0,
+            freq_mhz: 2412,
+            seen_t_ns: 5,
+        };
+        e.on_wifi(&WifiScan {
+            t_ns: 6,
+            results: vec![result.clone(), result],
+        });
+        e.on_wifi(&WifiScan {
+            t_ns: 7,
+            results: Vec::new(),
+        });
+        let s = e.stats();
+        assert_eq!((s.sensor_events, s.ble_observations), (3, 1));
+        assert_eq!((s.wifi_scans, s.wifi_results), (2, 2));
+        assert_eq!((s.rejected_inputs, e.name()), (3, "pdr"));
     }
 }

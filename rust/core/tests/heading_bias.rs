@@ -7,8 +7,9 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::site::{Site, SiteSpec};
 use fpbp_sim::{SimRequest, simulate};
@@ -18,7 +19,7 @@ fn demo_dir() -> std::path::PathBuf {
 }
 
 fn demo_spec() -> SiteSpec {
-    fpbp_cli::site_io::load_site(&demo_dir().join("site.json"))
+    fpbp_core::site::files::load_site(&demo_dir().join("site.json"))
         .unwrap()
         .spec
         .clone()
@@ -32,7 +33,7 @@ fn pdr_segments(bias: f64) -> Vec<HeadingSegment> {
     let dir = demo_dir();
     let site = Arc::new(
         Site::build(spec, "demo", &mut |plan: &str| {
-            fpbp_cli::site_io::read_plan_file(&dir.join(plan))
+            fpbp_core::site::files::read_plan_file(&dir.join(plan))
         })
         .unwrap(),
     );

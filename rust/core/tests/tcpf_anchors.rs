@@ -8,7 +8,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use fpbp_core::engine::replay::{ReplayOutput, replay};
-use fpbp_core::engine::{EngineConfig, EngineData, build_engine_with};
+use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::radio::RadioMap;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::ReferenceScanConfig;
@@ -17,7 +17,7 @@ use fpbp_sim::{SimRequest, simulate};
 
 fn demo_site() -> Arc<Site> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_cli::site_io::load_site(&path).unwrap()
+    fpbp_core::site::files::load_site(&path).unwrap()
 }
 
 /// The radio map of three simulated survey walks, with their reference scans.

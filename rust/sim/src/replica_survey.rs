@@ -1,16 +1,16 @@
 //! The walked fingerprint survey of a replica testbed (BMW Sec. 3.2.1,
 //! docs/reproduction.md "robust-ekf (BMW)"): the replica's survey walks
-//! (`fpbp_sim::replica::survey_walks`) simulated and turned into a
+//! (`crate::replica::survey_walks`) simulated and turned into a
 //! fingerprint database by the same builder as `fpbp fingerprint build`
 //! (`fpbp_core::fingerprint::SurveyBuilder`). Shared by `fpbp reproduce`
 //! and the `trace_replica` example.
 
+use crate::SimRequest;
+use crate::replica::{SurveyPattern, survey_walks};
 use anyhow::Context;
-use fpbp_core::engine::EngineConfig;
+use fpbp_core::engines::EngineConfig;
 use fpbp_core::fingerprint::{FingerprintSet, SurveyBuilder};
 use fpbp_core::site::Site;
-use fpbp_sim::SimRequest;
-use fpbp_sim::replica::{SurveyPattern, survey_walks};
 
 /// The BMW replica's survey settings (engine config JSON): reference points
 /// 0.6 m apart (Sec. 4: 514 RPs at 0.6 m), known points only at the ends of
@@ -44,10 +44,10 @@ pub fn survey_db(
             duration_s: w.duration_s,
             seed: SURVEY_SEED_OFFSET + seed,
             floor: Some(w.floor),
-            t0_ns: fpbp_sim::DEFAULT_T0_NS,
+            t0_ns: crate::DEFAULT_T0_NS,
             profile: w.profile.clone(),
         };
-        let sim = fpbp_sim::simulate(site, &req)
+        let sim = crate::simulate(site, &req)
             .with_context(|| format!("simulating {} floor {} seed {seed}", w.name, w.floor))?;
         let rep = b.add_log(&sim.events);
         known += rep.known_points;

@@ -43,6 +43,11 @@ impl Grid {
     pub fn len(&self) -> usize {
         self.width_px * self.height_px
     }
+
+    /// Whether the grid has no pixel.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
 }
 
 /// Calls `fill(i, j)` for every pixel whose centre lies inside `poly`

@@ -5,13 +5,13 @@
 //! points through the site's georeference), so a person can see that the
 //! truth lies in walkable space; prints where the truth points fall.
 //!
-//! The site is loaded with `site_io::load_site` (`Site::build`), truth with
+//! The site is loaded with `fpbp_core::site::files::load_site` (`Site::build`), truth with
 //! `fpbp_logs`. `fpbp map check SITE --truth LOG...` (map module) draws the
 //! truth points too; this command adds the walks, wall-crossing counts,
 //! beacons, folder arguments and a JSON summary.
 
-use crate::import_raster::{colour_of, wall_crossings};
-use crate::import_truth::list_files;
+use crate::raster::{colour_of, wall_crossings};
+use crate::truth::list_files;
 use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
 use fpbp_core::events::LogEvent;
@@ -22,15 +22,16 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 /// Arguments of `fpbp import overlay`.
-#[derive(clap::Args, Debug)]
-pub struct Args {
+#[derive(Debug, Clone)]
+#[cfg_attr(feature = "cli", derive(clap::Args))]
+pub struct OverlayRequest {
     /// Site folder holding site.json (plans relative to it).
     pub site_dir: PathBuf,
     /// Logs (ILC traces or IPIN logfiles, plain or .gz) or folders of them.
-    #[arg(long, num_args = 1.., required = true)]
+    #[cfg_attr(feature = "cli", arg(long, num_args = 1.., required = true))]
     pub truth: Vec<PathBuf>,
     /// Output folder: overlay_<floor>.png, overlay.json.
-    #[arg(long)]
+    #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
 }
 
@@ -51,13 +52,6 @@ pub struct FloorOverlay {
 
 /// Truth of one log: floor -> points in order.
 type LogTruth = BTreeMap<i32, Vec<Vec2>>;
-
-/// `fpbp import overlay`.
-pub fn run(args: Args) -> Result<()> {
-    let rows = overlay(&args)?;
-    println!("{}", serde_json::to_string_pretty(&rows)?);
-    Ok(())
-}
 
 /// Reads one log's truth in the site's MCS with the project's log readers
 /// (`fpbp_logs`, the same conversions replay and eval use): IPIN POSI through
@@ -109,8 +103,8 @@ fn line(img: &mut image::RgbImage, a: Vec2, b: Vec2, c: [u8; 3]) {
 }
 
 /// Draws and counts; writes overlay_<floor>.png and overlay.json into `out`.
-pub fn overlay(args: &Args) -> Result<Vec<FloorOverlay>> {
-    let site = crate::site_io::load_site(&args.site_dir.join("site.json"))?;
+pub fn overlay(args: &OverlayRequest) -> Result<Vec<FloorOverlay>> {
+    let site = fpbp_core::site::files::load_site(&args.site_dir.join("site.json"))?;
     let spec = &site.spec;
     let mut files = Vec::new();
     for t in &args.truth {
@@ -240,7 +234,7 @@ mod tests {
             "1\tTYPE_WAYPOINT\t5\t5.5\n2\tTYPE_WAYPOINT\t15\t5.5\n3\tTYPE_WAYPOINT\t5\t8.5\n4\tTYPE_WAYPOINT\t10.5\t2\n",
         )
         .unwrap();
-        let rows = overlay(&Args {
+        let rows = overlay(&OverlayRequest {
             site_dir: dir.clone(),
             truth: vec![dir.join("w.txt")],
             out: dir.join("o"),

@@ -17,10 +17,10 @@ use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::{LogEvent, SensorData, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
-use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::radio::survey_track::{ShapeCounts, ShapeLimits, pdr_shaped_truth, with_truth};
 use fpbp_core::site::SiteSpec;
 use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
+use fpbp_eval::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_logs::{ReadOptions, read_all};
 
 use fpbp_eval::eval::{Split, select_logs};

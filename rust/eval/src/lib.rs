@@ -11,6 +11,7 @@
 //! - [`plot`]: CDF and track plots; [`progress`]: terminal progress bars.
 //! - [`engine_data`], [`radio_map`], [`radios`]: what engines get beside
 //!   the site (fingerprints, a radio map) and which radios they hear.
+//! - [`heading_bias`]: a site's PDR heading bias from replays with truth.
 //! - [`json_patch`]: `--set`-style JSON merges of configs and profiles.
 //! - [`reproduce`]: the five papers on their simulated replica testbeds.
 //!
@@ -19,6 +20,7 @@
 
 pub mod engine_data;
 pub mod eval;
+pub mod heading_bias;
 pub mod json_patch;
 pub mod metrics;
 pub mod parallel;

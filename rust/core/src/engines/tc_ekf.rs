@@ -318,7 +318,7 @@ pub(super) fn tracked_floor(
     top_n: usize,
     ble_floor: i32,
 ) -> i32 {
-    if let Some(v) = floors.vote(beacons, top_n) {
+    if let Some(v) = crate::ble::BleFrontEnd::floor_vote(floors.config(), beacons, top_n) {
         floors.on_ble_floor(t_ns, v);
     }
     if floors.has_pressure() {

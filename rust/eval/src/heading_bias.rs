@@ -10,9 +10,9 @@
 //! error; the filters' per-particle heading offsets only learn it while
 //! the radio holds them.
 
-use crate::Vec2;
-use crate::engine::replay::ScoredPoint;
-use crate::geometry::wrap_angle;
+use fpbp_core::Vec2;
+use fpbp_core::engine::replay::ScoredPoint;
+use fpbp_core::geometry::wrap_angle;
 
 /// Shortest truth displacement a segment needs, metres: below it the
 /// truth's own quantisation and a step or two of PDR noise turn the angle.
@@ -148,9 +148,9 @@ pub fn heading_bias(segs: &[HeadingSegment]) -> Option<HeadingBias> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::engine::{Pose, PoseSource};
-    use crate::events::TruthPoint;
-    use crate::geometry::rotate;
+    use fpbp_core::engine::{Pose, PoseSource};
+    use fpbp_core::events::TruthPoint;
+    use fpbp_core::geometry::rotate;
 
     /// Segments of a square-ish walk whose PDR is turned by `-bias` (so
     /// `bias` turns it back), with a deterministic +-`jitter` per segment.

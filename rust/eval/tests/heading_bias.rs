@@ -10,8 +10,8 @@ use std::sync::Arc;
 use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engines::{EngineConfig, build_engine};
-use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::site::{Site, SiteSpec};
+use fpbp_eval::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_sim::{SimRequest, simulate};
 
 fn demo_dir() -> std::path::PathBuf {

@@ -327,7 +327,7 @@ impl SiteSpec {
         self.validate_transmitters(file, "beacons", &self.beacons)?;
         self.validate_transmitters(file, "access_points", &self.access_points)?;
         for (k, a) in self.access_points.iter().enumerate() {
-            if !crate::wifi::is_bssid(&a.id) {
+            if !crate::ble::beacon_id::is_bssid(&a.id) {
                 return Err(site_err(
                     file,
                     format!("access_points[{k}].id"),

@@ -380,16 +380,7 @@ pub struct WifiEntries<'a> {
     pub seen_t_ns: &'a [i64],
 }
 
-/// `aa:bb:cc:dd:ee:ff` (lower case) from any case, with `:` or `-`; `None`
-/// when it is not six hex pairs.
-pub fn normalize_bssid(s: &str) -> Option<String> {
-    let parts: Vec<&str> = s.split([':', '-']).collect();
-    let ok = parts.len() == 6
-        && parts
-            .iter()
-            .all(|p| p.len() == 2 && p.bytes().all(|b| b.is_ascii_hexdigit()));
-    ok.then(|| parts.join(":").to_ascii_lowercase())
-}
+use fpbp_core::wifi::normalize_bssid;
 
 /// The valid results of a scan at `t_ns` and the number of bad entries:
 /// a BSSID that is not six hex pairs, a non-finite RSSI, a frequency <= 0

@@ -2,11 +2,15 @@
 //! start, the phone offset, recovery from a wrong start, walls,
 //! determinism, set_position.
 
+use super::anchors::{Anchor, anchor_mix, anchor_mix_many};
+use super::cells::{CellExpected, WithCells};
 use super::*;
+use crate::engine::PoseSource;
 use crate::engine::replay::{ReplayOutput, replay};
 use crate::engines::build_engine;
 use crate::engines::prox_pf::testkit::{MODEL, beacons, site, walk_north, walled_map};
 use crate::events::LogEvent;
+use crate::radio::{Measurement, TxKind};
 
 fn run(events: &[LogEvent], init: Option<InitialPosition>, cfg: &EngineConfig) -> ReplayOutput {
     let mut e = build_engine("tcpf", site(), cfg, init).unwrap();
@@ -426,9 +430,9 @@ fn a_broad_pose_is_not_held_behind_a_wall() {
         // the cloud behind the wall (x = 40-42 m), the last point before it
         e.start_at(BEHIND_THE_WALL_EAST);
         let prev = Vec2::new(10.0, 33.0);
-        e.published = Some(prev);
-        e.cloud_accuracy_m = Some(accuracy_m);
-        e.pose = Some(Pose {
+        e.publisher.published = Some(prev);
+        e.publisher.cloud_accuracy_m = Some(accuracy_m);
+        e.publisher.pose = Some(Pose {
             t_ns: 0,
             x_m: prev.x,
             y_m: prev.y,
@@ -454,15 +458,15 @@ fn a_window_far_from_the_survey_widens_the_radius() {
     cfg.tcpf.anchors.accuracy_free_db = 6.0;
     cfg.tcpf.anchors.accuracy_per_db_m = 1.0;
     let mut e = TcpfEngine::new(site(), &cfg, None).unwrap();
-    e.survey_dist_db = None;
+    e.anchors.survey_dist_db = None;
     assert_eq!(e.accuracy_with_survey(3.0), 3.0);
-    e.survey_dist_db = Some(5.0);
+    e.anchors.survey_dist_db = Some(5.0);
     assert_eq!(e.accuracy_with_survey(3.0), 3.0);
-    e.survey_dist_db = Some(10.0);
+    e.anchors.survey_dist_db = Some(10.0);
     assert!((e.accuracy_with_survey(3.0) - 5.0).abs() < 1e-12);
     cfg.tcpf.anchors.accuracy_per_db_m = 0.0;
     let mut off = TcpfEngine::new(site(), &cfg, None).unwrap();
-    off.survey_dist_db = Some(40.0);
+    off.anchors.survey_dist_db = Some(40.0);
     assert_eq!(off.accuracy_with_survey(3.0), 3.0);
     // end to end: scans 30 dB louder than anything heard put the phone
     // far from the survey, and its radius is wider than beside the survey

@@ -213,7 +213,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             fmt_opt(m.errors.p80_m, 2),
             fmt_opt(m.track.jumps_per_100m, 1),
             fmt_opt(m.track.wall_crossings_per_100m, 1),
-            fmt_opt(m.mct_us.gml, 1),
+            fmt_opt(m.mct_us.radio, 1),
             fmt_opt(m.mct_us.fusion, 1),
             fmt_opt(m.realtime_factor, 0),
             100.0 * m.track.poses_in_wall

@@ -128,7 +128,7 @@ fn print_table(ms: &[EngineMetrics]) {
             fmt_opt(e.ipin_score_m, 2),
             fmt_opt(m.track.jumps_per_100m, 1),
             fmt_opt(m.track.wall_crossings_per_100m, 1),
-            fmt_opt(m.mct_us.gml, 1),
+            fmt_opt(m.mct_us.radio, 1),
             fmt_opt(m.mct_us.fusion, 1),
             fmt_opt(m.realtime_factor, 0),
             m.start.name(),

@@ -293,7 +293,7 @@ fn engine_update(c: &mut Criterion) {
                         tx_power_dbm: None,
                     });
                 }
-                e.run_task(Task::Ble, t_ns);
+                e.run_task(Task::Radio, t_ns);
                 e.run_task(Task::Fusion, t_ns);
                 black_box(e.pose())
             })

@@ -584,7 +584,7 @@ mod tests {
         ] {
             assert!(e0.get(k).is_some(), "missing {k}");
         }
-        assert!(e0["mct_us"].get("gml").is_some() && e0["mct_us"]["fusion"].as_f64().is_some());
+        assert!(e0["mct_us"].get("radio").is_some() && e0["mct_us"]["fusion"].as_f64().is_some());
         assert_eq!(e0["per_log"].as_array().unwrap().len(), 3);
         assert_eq!(e0["per_log"][0]["log"], "walk0.log");
         assert!(image::open(d.join("out/cdf.png")).is_ok());

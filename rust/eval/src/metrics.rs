@@ -100,10 +100,12 @@ impl ErrorStats {
     }
 }
 
-/// Mean compute time per task call, microseconds.
-#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+/// Mean compute time per task call, microseconds (metrics.json `mct_us`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, serde::Deserialize)]
 pub struct MctUs {
-    pub gml: Option<f64>,
+    /// The radio task; metrics.json version 2 wrote it as `gml`, still read.
+    #[serde(alias = "gml")]
+    pub radio: Option<f64>,
     pub fusion: Option<f64>,
 }
 
@@ -122,7 +124,7 @@ impl MctUs {
             (n > 0).then(|| s / n as f64)
         };
         MctUs {
-            gml: mean(Task::Ble),
+            radio: mean(Task::Radio),
             fusion: mean(Task::Fusion),
         }
     }
@@ -274,6 +276,13 @@ mod tests {
     use crate::runner::*;
     use crate::testkit::*;
     use fpbp_core::engines::EngineConfig;
+
+    #[test]
+    fn task_times_of_version_2_files_still_read() {
+        let old: MctUs = serde_json::from_str(r#"{"gml": 41.5, "fusion": 3.2}"#).unwrap();
+        let new: MctUs = serde_json::from_str(r#"{"radio": 41.5, "fusion": 3.2}"#).unwrap();
+        assert_eq!((old.radio, &old), (Some(41.5), &new));
+    }
 
     #[test]
     fn percentiles_interpolate_like_numpy() {

@@ -188,7 +188,7 @@ mod tests {
             (&json["format"], &json["version"], &json["command"]),
             (
                 &serde_json::json!("fpbp-metrics"),
-                &serde_json::json!(2),
+                &serde_json::json!(3),
                 &serde_json::json!("replay")
             )
         );

@@ -19,9 +19,11 @@ use crate::runner::{InitMode, LoadedLog, LogRun};
 
 /// `format` of every metrics.json fpbp writes.
 pub const METRICS_FORMAT: &str = "fpbp-metrics";
-/// Its version: 2 = one document for eval, replay and demo (version 1 had
-/// `fpbp-eval-metrics` / `fpbp-replay-metrics` and demo's bare list).
-pub const METRICS_VERSION: u32 = 2;
+/// Its version: 3 = the radio task's times under `mct_us.radio` (version 2
+/// wrote `mct_us.gml`; [`crate::metrics::MctUs`] reads both); 2 = one
+/// document for eval, replay and demo (version 1 had `fpbp-eval-metrics` /
+/// `fpbp-replay-metrics` and demo's bare list).
+pub const METRICS_VERSION: u32 = 3;
 
 /// A segment between consecutive poses longer than
 /// `JUMP_BASE_M + JUMP_SPEED_MPS * dt` is a jump (walking is ~1.4 m/s; a

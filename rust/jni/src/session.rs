@@ -13,8 +13,8 @@ use fpbp_core::site::GeoRef;
 use crate::error::BridgeError;
 use crate::site_loader;
 
-/// Task codes of the Kotlin side (`NativeBridge.TASK_GML`, `TASK_FUSION`).
-pub const TASK_GML: i32 = 0;
+/// Task codes of the Kotlin side (`NativeBridge.TASK_RADIO`, `TASK_FUSION`).
+pub const TASK_RADIO: i32 = 0;
 pub const TASK_FUSION: i32 = 1;
 
 /// Layout of the pose array `getPose` writes (`NativeBridge.POSE_*` in Kotlin).
@@ -68,7 +68,7 @@ pub struct MapFrame {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Snapshot {
     pub engine: &'static str,
-    /// `task_period_ns` of `Task::Ble` and `Task::Fusion` (0 = no such task).
+    /// `task_period_ns` of `Task::Radio` and `Task::Fusion` (0 = no such task).
     pub periods_ns: [i64; 2],
     pub pose: Option<Pose>,
     pub ble_position: Option<Pose>,
@@ -87,10 +87,10 @@ pub struct Session {
 /// Maps a Kotlin task code to the core's task.
 pub fn task_from_code(code: i32) -> Result<Task, BridgeError> {
     match code {
-        TASK_GML => Ok(Task::Ble),
+        TASK_RADIO => Ok(Task::Radio),
         TASK_FUSION => Ok(Task::Fusion),
         other => Err(BridgeError::IllegalArgument(format!(
-            "task code {other} (known: {TASK_GML} = gml, {TASK_FUSION} = fusion)"
+            "task code {other} (known: {TASK_RADIO} = gml, {TASK_FUSION} = fusion)"
         ))),
     }
 }
@@ -225,7 +225,7 @@ impl Session {
         Snapshot {
             engine: self.engine.name(),
             periods_ns: [
-                self.task_period_ns(Task::Ble),
+                self.task_period_ns(Task::Radio),
                 self.task_period_ns(Task::Fusion),
             ],
             pose: self.engine.pose(),

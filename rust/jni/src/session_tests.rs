@@ -113,7 +113,7 @@ fn optional_values_map_nan_to_none_and_values_pass_unchanged() {
     s.on_ble(2, Some("mac:00:00:00:00:00:01".into()), -71.5, f64::NAN);
     s.on_gnss(3, 49.0, 11.0, [300.0, f64::NAN, 1.5, f64::INFINITY]);
     s.on_sensor(11, 4, Some(&[0.1, 0.2, 0.3, 0.9, 2.0]));
-    assert_eq!(s.task_period_ns(Task::Ble), 0);
+    assert_eq!(s.task_period_ns(Task::Radio), 0);
     let r = shared.lock().expect("spy");
     assert_eq!(r.ble[0].tx_power_dbm, Some(-59.0));
     assert_eq!(r.ble[1].tx_power_dbm, None);
@@ -131,14 +131,14 @@ fn optional_values_map_nan_to_none_and_values_pass_unchanged() {
 
 #[test]
 fn task_codes_periods_and_pose_layout() {
-    assert_eq!(task_from_code(TASK_GML).expect("gml"), Task::Ble);
+    assert_eq!(task_from_code(TASK_RADIO).expect("gml"), Task::Radio);
     assert_eq!(task_from_code(TASK_FUSION).expect("fusion"), Task::Fusion);
     assert!(matches!(
         task_from_code(2),
         Err(BridgeError::IllegalArgument(_))
     ));
     let mut s = Session::from_engine(Box::new(Recorder::default()));
-    assert_eq!(s.task_period_ns(Task::Ble), 0);
+    assert_eq!(s.task_period_ns(Task::Radio), 0);
     assert_eq!(s.task_period_ns(Task::Fusion), 200_000_000);
     assert!(s.pose().is_none());
     s.run_task(Task::Fusion, 42);
@@ -367,7 +367,7 @@ fn stats_report_the_phone_offset_the_engine_estimates() {
             });
             s.on_ble(t_ns, Some(id.clone()), *rssi, f64::NAN);
         }
-        for task in [Task::Ble, Task::Fusion] {
+        for task in [Task::Radio, Task::Fusion] {
             e.run_task(task, t_ns);
             s.run_task(task, t_ns);
         }

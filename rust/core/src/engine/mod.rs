@@ -2,7 +2,7 @@
 //!
 //! Inputs are sensor events, BLE observations and GNSS fixes; outputs are
 //! poses. Each engine has up to two periodic tasks, as in the FP-BP paper's
-//! Runnables: [`Task::Ble`] (GML for FP-BP, every T_gml) and [`Task::Fusion`]
+//! Runnables: [`Task::Radio`] (GML for FP-BP, every T_gml) and [`Task::Fusion`]
 //! (particle filter + PPC for FP-BP, every T_fusion). On a phone they run on
 //! their own executors; in replay [`replay::Replayer`] drives them at their
 //! nominal periods by the log's clock, so a replay is deterministic.
@@ -23,20 +23,22 @@ pub use start::check_initial_position;
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Task {
-    /// BLE positioning task (GML in FP-BP), every `tasks.gml_period_ms`.
-    Ble,
+    /// The radio task (BLE and WiFi: GML in FP-BP, the measurement set in
+    /// tcpf), every `tasks.radio_period_ms` (the paper's T_gml).
+    Radio,
     /// Fusion task (PF + PPC in FP-BP), every `tasks.fusion_period_ms`.
     Fusion,
 }
 
 impl Task {
     /// Both tasks, in the order they run when due at the same instant.
-    pub const ALL: [Task; 2] = [Task::Ble, Task::Fusion];
+    pub const ALL: [Task; 2] = [Task::Radio, Task::Fusion];
 
-    /// Short name used in metrics ("gml", "fusion").
+    /// Short name used in metrics ("radio", "fusion"; metrics.json version 2
+    /// called the radio task "gml").
     pub fn metric_name(self) -> &'static str {
         match self {
-            Task::Ble => "gml",
+            Task::Radio => "radio",
             Task::Fusion => "fusion",
         }
     }

@@ -58,8 +58,8 @@ impl EngineConfig {
 
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
-        if self.tasks.gml_period_ms == 0 {
-            return Err(crate::Error::config("tasks.gml_period_ms", "must be > 0"));
+        if self.tasks.radio_period_ms == 0 {
+            return Err(crate::Error::config("tasks.radio_period_ms", "must be > 0"));
         }
         if self.tasks.fusion_period_ms == 0 {
             return Err(crate::Error::config(

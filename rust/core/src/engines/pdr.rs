@@ -114,7 +114,7 @@ impl Engine for PdrEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         match task {
-            Task::Ble => None,
+            Task::Radio => None,
             Task::Fusion => Some(self.fusion_period_ns),
         }
     }
@@ -195,7 +195,7 @@ mod tests {
             heading_rad: None,
         };
         let mut eng = PdrEngine::new(open_site(), &EngineConfig::default(), Some(init)).unwrap();
-        assert_eq!(eng.task_period_ns(Task::Ble), None);
+        assert_eq!(eng.task_period_ns(Task::Radio), None);
         // 20 s of walking at 1.8 Hz, phone flat, top pointing north (identity quaternion).
         let q = UnitQuaternion::identity();
         let mut events = Vec::new();

@@ -133,7 +133,7 @@ impl RobustEkfEngine {
             rejected_fixes: 0,
             last_fix: None,
             pose: None,
-            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
         })
@@ -239,7 +239,7 @@ impl Engine for RobustEkfEngine {
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
-            T::Ble => {
+            T::Radio => {
                 let Some((floor, pos)) = self.fingerprint_fix(t_ns) else {
                     self.stats.no_fix += 1;
                     return;
@@ -327,7 +327,7 @@ impl Engine for RobustEkfEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         Some(match task {
-            T::Ble => self.ble_period_ns,
+            T::Radio => self.ble_period_ns,
             T::Fusion => self.fusion_period_ns,
         })
     }

@@ -8,7 +8,7 @@
 //! or weak transmitters give a broad likelihood and PDR and the map carry
 //! the track. Two tasks, as in every engine here:
 //!
-//! - `Task::Ble` (every `tasks.gml_period_ms`): the readings of BLE beacons
+//! - `Task::Radio` (every `tasks.radio_period_ms`): the readings of BLE beacons
 //!   and WiFi access points since the last run become one measurement set.
 //! - `Task::Fusion` (every `tasks.fusion_period_ms`): the PDR steps since the
 //!   last run move the particles (each with its own heading offset and step
@@ -190,7 +190,7 @@ impl TcpfEngine {
             publisher: Publisher::default(),
             magnetic: MagneticState::default(),
             scratch: Scratch::default(),
-            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
             counts: TcpfCounts::default(),
@@ -367,14 +367,14 @@ impl Engine for TcpfEngine {
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
-            Task::Ble => self.radio_task(t_ns),
+            Task::Radio => self.radio_task(t_ns),
             Task::Fusion => self.fusion_task(t_ns),
         }
     }
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         Some(match task {
-            Task::Ble => self.ble_period_ns,
+            Task::Radio => self.ble_period_ns,
             Task::Fusion => self.fusion_period_ns,
         })
     }

@@ -18,16 +18,17 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use fpbp_cli::site_io::load_site;
 use fpbp_core::Vec2;
+use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::radio::RadioMap;
 use fpbp_core::radio::RadioMapConfig;
 use fpbp_core::radio::magnetic_map::{MagneticMapBuilder, MagneticMapConfig, valued_cells};
 use fpbp_core::radio::survey_track::{ShapeLimits, pdr_shaped_truth, with_truth};
 use fpbp_core::site::Site;
+use fpbp_core::site::files::load_site;
 use fpbp_logs::{ReadOptions, read_all};
 
 fn main() -> Result<()> {

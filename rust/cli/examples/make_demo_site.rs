@@ -9,9 +9,9 @@
 use std::path::PathBuf;
 
 use anyhow::Context;
-use fpbp_cli::plan_draw::{Drawing, Stroke, is_walkable, seg};
 use fpbp_core::Vec2;
 use fpbp_core::site::{BeaconSpec, FloorSpec, Legend, SiteSpec};
+use fpbp_sim::plan_draw::{Drawing, Stroke, is_walkable, seg};
 
 const W_M: f64 = 64.0;
 const H_M: f64 = 44.0;

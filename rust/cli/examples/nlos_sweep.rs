@@ -24,12 +24,13 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, anyhow, bail};
-use fpbp_cli::plot::{LegendPosition, LineChart, lines_png};
-use fpbp_cli::site_io::load_site;
 use fpbp_core::ble::nlos::NlosGmlMode;
+use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
+use fpbp_core::site::files::load_site;
+use fpbp_eval::plot::{LegendPosition, LineChart, lines_png};
 use fpbp_sim::{SimProfile, SimRequest};
 
 fn engine_config(name: &str, seed: u64) -> (String, EngineConfig) {

@@ -16,10 +16,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
-use fpbp_cli::site_io::load_site;
 use fpbp_core::events::LogEvent;
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{Pdr, PdrConfig};
+use fpbp_core::site::files::load_site;
 use fpbp_sim::{SimProfile, SimRequest, simulate};
 
 fn pct(v: &[f64], p: f64) -> f64 {

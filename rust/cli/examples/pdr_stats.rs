@@ -24,8 +24,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
+use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::{LogEvent, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{Pdr, PdrConfig, Step};

@@ -19,11 +19,10 @@
 use std::path::Path;
 
 use anyhow::{Context, Result, bail};
-use fpbp_cli::json_patch::merge;
-use fpbp_core::engine::{
-    Engine, EngineConfig, EngineData, InitialPosition, Task, build_engine_with,
-};
+use fpbp_core::engine::{Engine, InitialPosition, Task};
+use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::events::{LogEvent, TruthPoint};
+use fpbp_eval::json_patch::merge;
 
 fn truth_at(truth: &[TruthPoint], t: i64) -> Option<(f64, f64, Option<i32>)> {
     let i = truth.partition_point(|p| p.t_ns <= t);
@@ -57,7 +56,7 @@ fn main() -> Result<()> {
     if survey.is_some() {
         merge(
             &mut value,
-            &serde_json::from_str(fpbp_cli::replica_survey::BMW_SURVEY_CONFIG)?,
+            &serde_json::from_str(fpbp_sim::replica_survey::BMW_SURVEY_CONFIG)?,
         );
     }
     if let Some(patch) = pos.get(4) {
@@ -65,7 +64,7 @@ fn main() -> Result<()> {
     }
     let mut cfg = EngineConfig::from_json(&value.to_string())?;
     cfg.seed = seed;
-    let site = fpbp_cli::site_io::load_site(
+    let site = fpbp_core::site::files::load_site(
         &Path::new("maps")
             .join(format!("replica-{paper}"))
             .join("site.json"),
@@ -77,7 +76,7 @@ fn main() -> Result<()> {
     let mut profile = walk.profile.clone();
     if let Ok(patch) = std::env::var("PROFILE_PATCH") {
         let p = serde_json::from_str(&patch).context("PROFILE_PATCH")?;
-        profile = fpbp_cli::json_patch::patched(&profile, &p)?;
+        profile = fpbp_eval::json_patch::patched(&profile, &p)?;
         profile.validate()?;
     }
     let sim = fpbp_sim::simulate(
@@ -108,9 +107,9 @@ fn main() -> Result<()> {
         .unwrap_or(0.0);
     let mut data = EngineData::default();
     if let Some(pattern) = &survey {
-        let pattern = fpbp_cli::replica_survey::parse_pattern(pattern)?;
+        let pattern = fpbp_sim::replica_survey::parse_pattern(pattern)?;
         let (set, known, samples) =
-            fpbp_cli::replica_survey::survey_db(paper, &site, &cfg, seed, pattern)?
+            fpbp_sim::replica_survey::survey_db(paper, &site, &cfg, seed, pattern)?
                 .context("this replica has no survey walks")?;
         eprintln!("walked survey DB: {known} known points, {samples} samples");
         data.fingerprints = Some(std::sync::Arc::new(set));

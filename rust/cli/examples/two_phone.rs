@@ -16,11 +16,12 @@ use std::path::Path;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
-use fpbp_cli::json_patch::merge;
+use fpbp_core::engine::Pose;
 use fpbp_core::engine::replay::{ReplayOutput, replay};
-use fpbp_core::engine::{EngineConfig, Pose, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::site::Site;
+use fpbp_eval::json_patch::merge;
 use fpbp_sim::{SimRequest, simulate};
 
 fn run(site: &Arc<Site>, events: &[LogEvent], cfg: &EngineConfig, seed: u64) -> ReplayOutput {
@@ -90,7 +91,7 @@ fn main() -> Result<()> {
         merge(&mut value, &serde_json::from_str(patch).context("config")?);
     }
     let cfg = EngineConfig::from_json(&value.to_string())?;
-    let site = fpbp_cli::site_io::load_site(Path::new("maps/demo/site.json"))?;
+    let site = fpbp_core::site::files::load_site(Path::new("maps/demo/site.json"))?;
     let mut all = Vec::new();
     for sim in sims {
         let log = simulate(&site, &SimRequest::new(seconds, sim))?;

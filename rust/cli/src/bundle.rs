@@ -50,7 +50,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         if plans.iter().any(|(q, _)| q == p) {
             continue;
         }
-        plans.push((p.clone(), fpbp_cli::site_io::read_plan_file(&dir.join(p))?));
+        plans.push((
+            p.clone(),
+            fpbp_core::site::files::read_plan_file(&dir.join(p))?,
+        ));
     }
     let map_json = match &args.radio_map {
         Some(p) => Some(std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?),
@@ -163,7 +166,7 @@ fn check(args: &Args) -> anyhow::Result<()> {
         );
     } else {
         let t = Instant::now();
-        let site = fpbp_cli::site_io::load_site(&args.input)?;
+        let site = fpbp_core::site::files::load_site(&args.input)?;
         let site_ms = ms(t);
         let t = Instant::now();
         let mut text_bytes = 0;

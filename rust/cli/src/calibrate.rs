@@ -13,18 +13,18 @@ use anyhow::{Context, Result, bail};
 use fpbp_core::Vec2;
 use fpbp_core::ble::calibrate::{SurveyPath, TransmitterReport, apply_to_site, calibrate};
 use fpbp_core::engine::replay::replay;
-use fpbp_core::engine::{EngineConfig, build_engine};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::{LogEvent, SensorData, TruthPoint};
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::map::{Feature, FloorMap};
-use fpbp_core::pdr::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_core::radio::survey_track::{ShapeCounts, ShapeLimits, pdr_shaped_truth, with_truth};
 use fpbp_core::site::SiteSpec;
 use fpbp_core::wifi::calibrate::{WifiSurveyPath, apply_aps_to_site, calibrate_aps};
+use fpbp_eval::heading_bias::{HeadingSegment, heading_bias, segments};
 use fpbp_logs::{ReadOptions, read_all};
 
-use crate::common::{InitMode, LoadedLog, LogRun, core_builder, run_log};
-use crate::eval::{Split, select_logs};
+use fpbp_eval::eval::{Split, select_logs};
+use fpbp_eval::runner::{InitMode, LoadedLog, LogRun, core_builder, run_log};
 
 /// Arguments of `fpbp calibrate`.
 #[derive(clap::Args)]
@@ -189,18 +189,14 @@ fn print_table(reports: &[TransmitterReport]) {
     }
 }
 
+/// Quantile `q` in [0, 1] of sorted values (`fpbp_core::stats`); NaN when empty.
 fn percentile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let pos = q * (sorted.len() - 1) as f64;
-    let (lo, hi) = (pos.floor() as usize, pos.ceil() as usize);
-    sorted[lo] + (sorted[hi] - sorted[lo]) * (pos - lo as f64)
+    fpbp_core::stats::quantile_sorted(sorted, q).unwrap_or(f64::NAN)
 }
 
 fn check(args: &Args, spec: &SiteSpec, cfg: &EngineConfig) -> Result<()> {
     let logs = select_logs(&args.check_logs, args.check_split);
-    let site: Arc<fpbp_core::site::Site> = crate::site_io::load_site(&args.out)?;
+    let site: Arc<fpbp_core::site::Site> = fpbp_core::site::files::load_site(&args.out)?;
     let opts = read_options(spec, args.floor);
     let mut all_events = Vec::new();
     for l in &logs {
@@ -326,8 +322,8 @@ pub fn run(args: Args) -> Result<()> {
     // each log's events as the fits saw them (truth densified with
     // `--survey-track pdr`), kept for the radio map: one PDR replay a log
     let mut radio_map_logs = Vec::new();
-    let input = crate::site_io::load_site(&args.site)?;
-    let bar = crate::progress::bar(logs.len() as u64 + 1);
+    let input = fpbp_core::site::files::load_site(&args.site)?;
+    let bar = fpbp_eval::progress::bar(logs.len() as u64 + 1);
     for l in &logs {
         bar.set_message(format!("reading {}", l.display()));
         bar.inc(1);
@@ -434,8 +430,8 @@ pub fn run(args: Args) -> Result<()> {
             .with_context(|| format!("writing {}", r.display()))?;
     }
     if let Some(rm) = &args.radio_map {
-        let site = crate::site_io::load_site(&args.out)?;
-        crate::radio_map::build(
+        let site = fpbp_core::site::files::load_site(&args.out)?;
+        fpbp_eval::radio_map::build(
             &site,
             radio_map_logs,
             args.radio_map_config.as_deref(),

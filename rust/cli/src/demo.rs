@@ -16,9 +16,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use fpbp_core::events::LogEvent;
 
-use crate::common::{self, EngineMetrics, InitMode, LogRun, ReadSummary, fmt_opt};
-use crate::plot::{self, TrackPlot};
-use crate::report;
+use fpbp_eval::metrics::{EngineMetrics, ReadSummary, fmt_opt};
+use fpbp_eval::plot::{self, TrackPlot};
+use fpbp_eval::report;
+use fpbp_eval::runner::{InitMode, LogRun};
 
 /// Arguments of `fpbp demo`.
 #[derive(clap::Args)]
@@ -83,19 +84,19 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let started = std::time::Instant::now();
     let site_path = resolve(&args.site);
     let logs_dir = resolve(&args.logs);
-    let site = crate::site_io::load_site(&site_path)?;
-    let cfg = common::load_config(args.config.as_deref(), args.seed)?;
-    let opts = common::read_options(&site, None, false);
+    let site = fpbp_core::site::files::load_site(&site_path)?;
+    let cfg = fpbp_eval::runner::load_config(args.config.as_deref(), args.seed)?;
+    let opts = fpbp_eval::runner::read_options(&site, None, false);
     let logs = log_files(&logs_dir)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
 
-    let bar = crate::progress::bar((logs.len() * args.engines.len()) as u64);
+    let bar = fpbp_eval::progress::bar((logs.len() * args.engines.len()) as u64);
     let mut runs: Vec<Vec<LogRun>> = args.engines.iter().map(|_| Vec::new()).collect();
     let mut reads = Vec::new();
     let mut loaded = Vec::new();
     for path in &logs {
-        let log = common::load_log(path, &opts)?;
+        let log = fpbp_eval::runner::load_log(path, &opts)?;
         reads.push(ReadSummary::from(&log.report));
         let truth: Vec<(f64, f64)> = log
             .events
@@ -111,8 +112,15 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         let mut panels = Vec::new();
         for (k, name) in args.engines.iter().enumerate() {
             bar.set_message(format!("{name} on {}", log.name));
-            let run = common::run_log(&common::core_builder, name, &site, &cfg, args.init, &log)
-                .with_context(|| format!("on {}", path.display()))?;
+            let run = fpbp_eval::runner::run_log(
+                &fpbp_eval::runner::core_builder,
+                name,
+                &site,
+                &cfg,
+                args.init,
+                &log,
+            )
+            .with_context(|| format!("on {}", path.display()))?;
             report::write_track_csv(
                 &args
                     .out
@@ -132,7 +140,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
                 truth,
             },
         )?;
-        loaded.push(common::LoadedLog {
+        loaded.push(fpbp_eval::runner::LoadedLog {
             events: log
                 .events
                 .into_iter()
@@ -200,12 +208,12 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             m.start.name(),
             m.errors.points,
             fmt_opt(m.errors.mpe_m, 2),
-            crate::eval::fmt_pct(m.errors.coverage),
+            fpbp_eval::eval::fmt_pct(m.errors.coverage),
             fmt_opt(m.errors.p50_m, 2),
             fmt_opt(m.errors.p80_m, 2),
             fmt_opt(m.track.jumps_per_100m, 1),
             fmt_opt(m.track.wall_crossings_per_100m, 1),
-            fmt_opt(m.mct_us.gml, 1),
+            fmt_opt(m.mct_us.radio, 1),
             fmt_opt(m.mct_us.fusion, 1),
             fmt_opt(m.realtime_factor, 0),
             100.0 * m.track.poses_in_wall
@@ -221,7 +229,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         args.out.display(),
         started.elapsed().as_secs_f64()
     );
-    let refs: Vec<&common::LoadedLog> = loaded.iter().collect();
+    let refs: Vec<&fpbp_eval::runner::LoadedLog> = loaded.iter().collect();
     let mrefs: Vec<&EngineMetrics> = engines.iter().collect();
     report::check_positioned(&site, &refs, &args.engines, &runs, &mrefs)
 }

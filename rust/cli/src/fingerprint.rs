@@ -8,16 +8,12 @@
 //! points (truth / PDR displacement) and the C (`pdr.step_length_beta`)
 //! that would remove it on these logs.
 
-use std::path::{Path, PathBuf};
-use std::sync::Arc;
+use std::path::PathBuf;
 
 use anyhow::{Context, bail};
-use fpbp_core::engine::EngineData;
 use fpbp_core::fingerprint::{FingerprintSet, SurveyBuilder};
-use fpbp_core::site::Site;
 
-use crate::common;
-use crate::eval::{Split, select_logs};
+use fpbp_eval::eval::{Split, select_logs};
 
 /// `fpbp fingerprint ...`
 #[derive(clap::Subcommand)]
@@ -59,8 +55,8 @@ pub fn run(cmd: Command) -> anyhow::Result<()> {
 }
 
 fn build(args: &BuildArgs) -> anyhow::Result<()> {
-    let site = common::load_site(&args.site)?;
-    let cfg = common::load_config(args.config.as_deref(), None)?;
+    let site = fpbp_eval::runner::load_site(&args.site)?;
+    let cfg = fpbp_eval::runner::load_config(args.config.as_deref(), None)?;
     let fcfg = &cfg.ekf.fingerprint;
     let set = if args.model {
         FingerprintSet::model(&site, &cfg.ble, fcfg)
@@ -69,7 +65,7 @@ fn build(args: &BuildArgs) -> anyhow::Result<()> {
         if logs.is_empty() {
             bail!("no logs left after --split {:?}", args.split);
         }
-        let opts = common::read_options(&site, args.floor, false);
+        let opts = fpbp_eval::runner::read_options(&site, args.floor, false);
         let mut b = SurveyBuilder::new(&site, &cfg.ble, &cfg.pdr, fcfg);
         let (mut truth_m, mut pdr_m) = (0.0, 0.0);
         println!(
@@ -77,7 +73,7 @@ fn build(args: &BuildArgs) -> anyhow::Result<()> {
             "log", "segments", "skipped", "samples", "steps", "truth/pdr"
         );
         for path in &logs {
-            let log = common::load_log(path, &opts)?;
+            let log = fpbp_eval::runner::load_log(path, &opts)?;
             let rep = b.add_log(&log.events);
             truth_m += rep.truth_displacement_m;
             pdr_m += rep.pdr_displacement_m;
@@ -88,7 +84,7 @@ fn build(args: &BuildArgs) -> anyhow::Result<()> {
                 rep.segments_skipped,
                 rep.samples,
                 rep.steps,
-                common::fmt_opt(rep.step_scale(), 3)
+                fpbp_eval::metrics::fmt_opt(rep.step_scale(), 3)
             );
         }
         if b.samples() == 0 {
@@ -135,43 +131,10 @@ fn build(args: &BuildArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-/// Reads a fingerprint database file and resolves it against `site`
-/// (errors name the file, and the field or line at fault).
-pub fn load(
-    path: &Path,
-    site: &Site,
-    cfg: &fpbp_core::engine::EngineConfig,
-) -> anyhow::Result<FingerprintSet> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read fingerprint database {}", path.display()))?;
-    FingerprintSet::from_json(&text, site, &cfg.ble).with_context(|| format!("{}", path.display()))
-}
-
-/// The engine data of an eval: the database of `--fingerprints FILE`, else,
-/// when `engines` include `robust-ekf`, the site's model database built once
-/// here (instead of once per log inside each engine).
-pub fn engine_data(
-    path: Option<&Path>,
-    engines: &[String],
-    site: &Arc<Site>,
-    cfg: &fpbp_core::engine::EngineConfig,
-) -> anyhow::Result<EngineData> {
-    let fingerprints = match path {
-        Some(p) => Some(Arc::new(load(p, site, cfg)?)),
-        None if engines.iter().any(|e| e.trim() == "robust-ekf") => Some(Arc::new(
-            FingerprintSet::model(site, &cfg.ble, &cfg.ekf.fingerprint),
-        )),
-        None => None,
-    };
-    Ok(EngineData {
-        fingerprints,
-        ..EngineData::default()
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use fpbp_eval::engine_data::load;
 
     fn repo() -> PathBuf {
         PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -182,8 +145,8 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("fpbp-fp-test-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let site_path = repo().join("maps/demo/site.json");
-        let site = common::load_site(&site_path).unwrap();
-        let cfg = fpbp_core::engine::EngineConfig::default();
+        let site = fpbp_eval::runner::load_site(&site_path).unwrap();
+        let cfg = fpbp_core::engines::EngineConfig::default();
         // missing file
         let missing = dir.join("nope.json");
         let e = format!("{:#}", load(&missing, &site, &cfg).unwrap_err());

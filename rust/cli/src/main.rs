@@ -3,30 +3,17 @@
 
 mod bundle;
 mod calibrate;
-mod common;
 mod demo;
 mod eval;
 mod fingerprint;
 mod import;
-mod import_geojson;
-mod import_ilc;
-mod import_ipin;
-mod import_overlay;
-mod import_raster;
-mod import_truth;
 mod map_check;
-mod parallel;
-mod progress;
-mod radio_map;
-mod radios;
 mod realism;
 mod replay;
-mod report;
 mod reproduce;
 mod simulate;
 
 use clap::{Parser, Subcommand};
-use fpbp_cli::{plot, site_io};
 
 /// fpbp: floor-plan-assisted BLE + PDR indoor positioning.
 #[derive(Parser)]
@@ -44,9 +31,9 @@ enum Command {
         command: MapCommand,
     },
     /// Replay one log through one engine: track.csv, metrics.json, track.png.
-    Replay(replay::Args),
+    Replay(fpbp_eval::replay::ReplayOptions),
     /// Evaluate engines on logs: metrics.json, per-log rows, CDF plot.
-    Eval(eval::Args),
+    Eval(fpbp_eval::eval::EvalOptions),
     /// Write a simulated native log with ground truth.
     Simulate(simulate::Args),
     /// Compare simulated and real logs (step frequency, accel p-p, BLE rate, RSSI slope).

@@ -12,7 +12,7 @@ use fpbp_core::map::{Feature, FloorMap};
 use fpbp_core::site::Site;
 use image::{Rgba, RgbaImage};
 
-use crate::site_io::load_site;
+use fpbp_core::site::files::load_site;
 
 /// Arguments of `fpbp map check`.
 #[derive(clap::Args)]
@@ -128,9 +128,9 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         // ... and the figure: axes in metres, scale bar, legend
         let path = args.out.join(format!("{name}.png"));
         let c = |p: Rgba<u8>| plotters::style::RGBColor(p.0[0], p.0[1], p.0[2]);
-        crate::plot::floor_figure_png(
+        fpbp_eval::plot::floor_figure_png(
             &path,
-            &crate::plot::FloorFigure {
+            &fpbp_eval::plot::FloorFigure {
                 title: format!("{}: floor {} ({})", site.spec.name, fs.id, fs.name),
                 image: &img,
                 width_m: map.width_m(),

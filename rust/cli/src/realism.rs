@@ -138,7 +138,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut rows: Vec<Row> = Vec::new();
     let sim_beacons: BTreeMap<String, KnownBeacon> = match &args.site {
         Some(p) => {
-            let site = crate::site_io::load_site(p)?;
+            let site = fpbp_core::site::files::load_site(p)?;
             site.spec
                 .beacons
                 .iter()

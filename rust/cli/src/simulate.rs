@@ -132,7 +132,7 @@ pub fn write_log(log: &SimLog, site_file: &str, out: &Path) -> Result<()> {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let site = crate::site_io::load_site(&args.site)?;
+    let site = fpbp_core::site::files::load_site(&args.site)?;
     let mut profile = load_profile(&args.profile)?;
     if let Some(x) = args.nlos_rate {
         profile.ble.nlos_rate = x;
@@ -143,7 +143,7 @@ pub fn run(args: Args) -> Result<()> {
     let mut req = SimRequest::new(args.seconds, args.seed);
     req.floor = args.floor;
     req.profile = profile;
-    let bar = crate::progress::spinner(format!("simulating {} s of walking", args.seconds));
+    let bar = fpbp_eval::progress::spinner(format!("simulating {} s of walking", args.seconds));
     let log = fpbp_sim::simulate(&site, &req)
         .with_context(|| format!("simulating on {}", args.site.display()))?;
     bar.set_message(format!("writing {}", args.out.display()));

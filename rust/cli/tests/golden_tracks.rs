@@ -22,9 +22,8 @@ use std::process::Command;
 use std::sync::Arc;
 
 use fpbp_core::engine::replay::Replayer;
-use fpbp_core::engine::{
-    ENGINE_NAMES, EngineConfig, EngineData, InitialPosition, Pose, build_engine_with,
-};
+use fpbp_core::engine::{InitialPosition, Pose};
+use fpbp_core::engines::{ENGINE_NAMES, EngineConfig, EngineData, build_engine_with};
 use fpbp_core::events::LogEvent;
 use fpbp_core::site::Site;
 use fpbp_logs::ReadOptions;
@@ -137,7 +136,7 @@ fn radio_map(site: &Site, logs: &[PathBuf]) -> EngineData {
 
 /// key (engine, start, log) -> "poses hash".
 fn current() -> BTreeMap<String, String> {
-    let site = fpbp_cli::site_io::load_site(&repo().join("maps/demo/site.json")).unwrap();
+    let site = fpbp_core::site::files::load_site(&repo().join("maps/demo/site.json")).unwrap();
     let logs = shipped_logs();
     let opts = ReadOptions {
         site_georef: site.spec.georef.map(|g| (g, site.spec.map_from_enu_rad)),

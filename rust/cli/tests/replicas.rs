@@ -7,7 +7,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use fpbp_cli::replica_sites::{REPLICAS, build, write};
+use fpbp_eval::reproduce::write_replica as write;
+use fpbp_sim::replica_sites::{REPLICAS, build};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -69,7 +70,7 @@ fn replicas_follow_their_papers() {
         .spec
         .beacons
         .iter()
-        .zip(fpbp_cli::replica_sites::PPSA_TABLE_1)
+        .zip(fpbp_sim::replica_sites::PPSA_TABLE_1)
     {
         assert_eq!((b.x_m, b.y_m), (p[0], p[1]));
         assert_eq!((b.rssi_1m_dbm, b.path_loss_exponent), (-55.0, 2.7));
@@ -79,7 +80,7 @@ fn replicas_follow_their_papers() {
     assert_eq!(bmw.spec.beacons.len(), 11);
     assert_eq!(bmw.spec.floors.len(), 2);
     for name in REPLICAS {
-        let site = fpbp_cli::site_io::load_site(
+        let site = fpbp_core::site::files::load_site(
             &repo()
                 .join("maps")
                 .join(format!("replica-{name}"))
@@ -147,11 +148,12 @@ fn tiny_reproduce_all_runs_every_paper() {
 /// ends, reference points in the corridor band on both floors.
 #[test]
 fn bmw_walked_survey_covers_the_corridor_on_both_floors() {
-    use fpbp_cli::json_patch::merge;
-    use fpbp_cli::replica_survey::{BMW_SURVEY_CONFIG, survey_db};
-    use fpbp_core::engine::EngineConfig;
+    use fpbp_core::engines::EngineConfig;
+    use fpbp_eval::json_patch::merge;
     use fpbp_sim::replica::SurveyPattern;
-    let site = fpbp_cli::site_io::load_site(&repo().join("maps/replica-bmw/site.json")).unwrap();
+    use fpbp_sim::replica_survey::{BMW_SURVEY_CONFIG, survey_db};
+    let site =
+        fpbp_core::site::files::load_site(&repo().join("maps/replica-bmw/site.json")).unwrap();
     let mut value = serde_json::to_value(EngineConfig::default()).unwrap();
     merge(
         &mut value,
@@ -191,7 +193,7 @@ fn bmw_walked_survey_covers_the_corridor_on_both_floors() {
 #[test]
 fn replica_walk_follows_its_waypoints_in_order() {
     let site =
-        fpbp_cli::site_io::load_site(&repo().join("maps/replica-prox-pf/site.json")).unwrap();
+        fpbp_core::site::files::load_site(&repo().join("maps/replica-prox-pf/site.json")).unwrap();
     let profile = fpbp_sim::SimProfile::named("replica-prox-pf-1").unwrap();
     let wps = profile.walk.waypoints_m.clone();
     let req = fpbp_sim::SimRequest {

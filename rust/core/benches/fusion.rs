@@ -157,7 +157,8 @@ fn fusion_step_with(c: &mut Criterion, name: &str, check: WallCheck) {
 /// the default config, on the demo site; the walk weaves as above.
 fn fusion_task_step(c: &mut Criterion) {
     use fpbp_core::ble::task::BleFix;
-    use fpbp_core::engine::{EngineConfig, InitialPosition};
+    use fpbp_core::engine::InitialPosition;
+    use fpbp_core::engines::EngineConfig;
     use fpbp_core::engines::fpbp::FusionSide;
     let Some(site) = demo_site() else {
         eprintln!("fusion_task_step: maps/demo not found, skipped");

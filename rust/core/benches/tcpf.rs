@@ -22,7 +22,8 @@ mod common;
 use criterion::{Criterion, criterion_group, criterion_main};
 use fpbp_core::Vec2;
 use fpbp_core::ble::pathloss::PathLoss;
-use fpbp_core::engine::{Engine, EngineConfig, InitialPosition, Task};
+use fpbp_core::engine::{Engine, InitialPosition, Task};
+use fpbp_core::engines::EngineConfig;
 use fpbp_core::engines::tcpf::TcpfEngine;
 use fpbp_core::events::BleObservation;
 use fpbp_core::fast_math::exp_many;
@@ -292,7 +293,7 @@ fn engine_update(c: &mut Criterion) {
                         tx_power_dbm: None,
                     });
                 }
-                e.run_task(Task::Ble, t_ns);
+                e.run_task(Task::Radio, t_ns);
                 e.run_task(Task::Fusion, t_ns);
                 black_box(e.pose())
             })

@@ -36,6 +36,14 @@ pub enum Error {
     /// Calibration could not produce a result.
     #[error("calibration: {0}")]
     Calibration(String),
+    /// A file could not be read (the `fs` feature's site loader): `file`
+    /// names it.
+    #[error("{file}: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
 }
 
 /// Result alias of the core.

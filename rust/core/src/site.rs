@@ -9,6 +9,7 @@ use crate::bounds::{
     MAX_FLOOR_SIDE_M, MAX_GRID_CELLS, MAX_MAP_PIXELS, MAX_PIXELS_PER_METER, MAX_PLAN_SIDE_PX,
     MIN_GRID_STEP_M, MIN_PIXELS_PER_METER, show,
 };
+pub use crate::map::Legend;
 use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
 use crate::{Error, Result};
 
@@ -69,31 +70,6 @@ fn is_zero(v: &f64) -> bool {
 
 fn default_grid_interval_m() -> f64 {
     DEFAULT_GRID_INTERVAL_M
-}
-
-/// Colours (RGB) of the stylized plan and the tolerance of the classifier.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct Legend {
-    pub wall: [u8; 3],
-    pub door: [u8; 3],
-    pub walkable: [u8; 3],
-    /// Largest Euclidean RGB distance at which a pixel still takes a class.
-    pub tolerance: f64,
-    /// Above this fraction of unclassified pixels the plan is rejected.
-    pub max_unclassified_fraction: f64,
-}
-
-impl Default for Legend {
-    fn default() -> Self {
-        Legend {
-            wall: [0, 0, 0],
-            door: [255, 0, 0],
-            walkable: [255, 255, 255],
-            tolerance: 60.0,
-            max_unclassified_fraction: 0.01,
-        }
-    }
 }
 
 /// One floor.
@@ -351,7 +327,7 @@ impl SiteSpec {
         self.validate_transmitters(file, "beacons", &self.beacons)?;
         self.validate_transmitters(file, "access_points", &self.access_points)?;
         for (k, a) in self.access_points.iter().enumerate() {
-            if !crate::wifi::is_bssid(&a.id) {
+            if !crate::ble::beacon_id::is_bssid(&a.id) {
                 return Err(site_err(
                     file,
                     format!("access_points[{k}].id"),
@@ -745,6 +721,9 @@ pub(crate) mod json_path {
         path
     }
 }
+
+#[cfg(feature = "fs")]
+pub mod files;
 
 #[cfg(test)]
 mod tests;

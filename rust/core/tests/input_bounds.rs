@@ -20,7 +20,8 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine};
+use fpbp_core::engine::InitialPosition;
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::site::{Site, SiteSpec};
 use rand::{RngExt, SeedableRng};
 

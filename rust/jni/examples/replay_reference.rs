@@ -1,7 +1,7 @@
 //! Pure-Rust reference replay for the JVM host tests (host-tests/jvm).
 //!
 //! Loads a site exactly as the JNI `start` does ([`fpbp::site_loader`]),
-//! builds the engine with `fpbp_core::engine::build_engine`, replays a log with
+//! builds the engine with `fpbp_core::engines::build_engine`, replays a log with
 //! `fpbp_core::engine::replay` and writes the track with every f64 as the hex
 //! of its bits, so the JVM side can check bit-for-bit equality:
 //!
@@ -20,7 +20,8 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 use fpbp::session::Session;
-use fpbp_core::engine::{EngineConfig, InitialPosition, build_engine, replay::replay};
+use fpbp_core::engine::{InitialPosition, replay::replay};
+use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 
 struct Args {

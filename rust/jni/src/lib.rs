@@ -341,17 +341,17 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_onGnss<'l>(
     })
 }
 
-/// `runGml(handle, tNs)`: one run of the BLE task (`Task::Ble`).
+/// `runRadio(handle, tNs)`: one run of the radio task (`Task::Radio`: BLE and WiFi).
 #[unsafe(no_mangle)]
-pub extern "system" fn Java_io_fpbp_NativeBridge_runGml<'l>(
+pub extern "system" fn Java_io_fpbp_NativeBridge_runRadio<'l>(
     mut env: EnvUnowned<'l>,
     _class: JClass<'l>,
     handle: jlong,
     t_ns: jlong,
 ) {
-    entry(&mut env, "runGml", |_| {
+    entry(&mut env, "runRadio", |_| {
         with_session(handle, |s| {
-            s.run_task(fpbp_core::engine::Task::Ble, t_ns);
+            s.run_task(fpbp_core::engine::Task::Radio, t_ns);
             Ok(())
         })
     })
@@ -374,7 +374,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_runFusion<'l>(
 }
 
 /// `taskPeriodNs(handle, task) -> Long`: the engine's period of task
-/// `TASK_GML` (0) or `TASK_FUSION` (1), ns; 0 when it has no such task.
+/// `TASK_RADIO` (0) or `TASK_FUSION` (1), ns; 0 when it has no such task.
 #[unsafe(no_mangle)]
 pub extern "system" fn Java_io_fpbp_NativeBridge_taskPeriodNs<'l>(
     mut env: EnvUnowned<'l>,
@@ -386,7 +386,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_taskPeriodNs<'l>(
         let task = session::task_from_code(task)?;
         let periods = snapshot(handle)?.periods_ns;
         Ok(match task {
-            fpbp_core::engine::Task::Ble => periods[0],
+            fpbp_core::engine::Task::Radio => periods[0],
             fpbp_core::engine::Task::Fusion => periods[1],
         })
     })
@@ -568,7 +568,7 @@ pub extern "system" fn Java_io_fpbp_NativeBridge_engineNames<'l>(
     entry(&mut env, "engineNames", |env| {
         Ok(JString::from_str(
             env,
-            fpbp_core::engine::ENGINE_NAMES.join(","),
+            fpbp_core::engines::ENGINE_NAMES.join(","),
         )?)
     })
 }

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use fpbp_core::site::{Site, SiteSpec};
+use fpbp_core::site::Site;
 
 use crate::error::BridgeError;
 
@@ -12,31 +12,12 @@ use crate::error::BridgeError;
 pub const SITE_NAME: &str = "site.json";
 
 /// Parses `site_json`, reads each floor's plan from `site_dir` and builds the
-/// site. Errors name the field (e.g. `floors[0].plan`) and, for plans, the path.
+/// site (`fpbp_core::site::files`, the reader the CLI uses too). Errors name
+/// the field (e.g. `floors[0].plan`) and, for plans, the path.
 pub fn load_site(site_json: &str, site_dir: &Path) -> Result<Site, BridgeError> {
-    let spec = SiteSpec::from_json(site_json.as_bytes(), SITE_NAME)?;
-    let site = Site::build(spec, SITE_NAME, &mut |plan: &str| {
-        read_plan_file(&site_dir.join(plan))
-    })?;
-    Ok(site)
-}
-
-/// Reads a plan file: only a regular file (a FIFO or device would block or
-/// never end, a directory is no plan) of at most
-/// [`fpbp_core::bounds::MAX_PLAN_FILE_BYTES`]. Errors name the path once. (The CLI's
-/// `site_io` has the same reader; the bridge does not depend on the CLI.)
-pub fn read_plan_file(p: &Path) -> std::io::Result<Vec<u8>> {
-    use fpbp_core::bounds::{MAX_PLAN_FILE_BYTES, check_plan_file};
-    use std::io::Read;
-    let named = |e: std::io::Error| std::io::Error::new(e.kind(), format!("{}: {e}", p.display()));
-    check_plan_file(p, &std::fs::metadata(p).map_err(named)?)?;
-    let f = std::fs::File::open(p).map_err(named)?;
-    check_plan_file(p, &f.metadata().map_err(named)?)?;
-    let mut buf = Vec::new();
-    f.take(MAX_PLAN_FILE_BYTES)
-        .read_to_end(&mut buf)
-        .map_err(named)?;
-    Ok(buf)
+    Ok(fpbp_core::site::files::load_site_text(
+        site_json, SITE_NAME, site_dir,
+    )?)
 }
 
 #[cfg(test)]

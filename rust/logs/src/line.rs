@@ -85,13 +85,11 @@ pub fn mac_id(mac: &str) -> Result<String, String> {
     }
 }
 
-/// A WiFi BSSID normalised to lower case `aa:bb:cc:dd:ee:ff`; checks the shape.
+/// A WiFi BSSID normalised to lower case `aa:bb:cc:dd:ee:ff` (`:` or `-`
+/// separated in the log); checks the shape.
 pub fn bssid(mac: &str) -> Result<String, String> {
-    if is_mac(mac) {
-        Ok(mac.to_ascii_lowercase())
-    } else {
-        Err(format!("`{mac}` is not a BSSID (aa:bb:cc:dd:ee:ff)"))
-    }
+    fpbp_core::wifi::normalize_bssid(mac)
+        .ok_or_else(|| format!("`{mac}` is not a BSSID (aa:bb:cc:dd:ee:ff)"))
 }
 
 /// One WiFi row's outcome.

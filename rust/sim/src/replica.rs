@@ -1,5 +1,5 @@
 //! Simulator profiles of the papers' replica testbeds (issue 18; sites in
-//! maps/replica-<paper>/, drawn by fpbp_cli::replica_sites). Each walk is a
+//! maps/replica-<paper>/, drawn by crate::replica_sites). Each walk is a
 //! fixed route (`walk.waypoints_m`) on its replica with the radio channel,
 //! advertising rate, phone height and walking speed the paper states; the
 //! choices where it is silent are listed, with reasons, in

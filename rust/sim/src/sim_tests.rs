@@ -313,7 +313,8 @@ fn wifi_scans_intervals_ages_and_the_throttle() {
 /// better than always answering the floor's centre.
 #[test]
 fn a_log_with_access_points_only_positions() {
-    use fpbp_core::engine::{EngineConfig, build_engine, replay::replay};
+    use fpbp_core::engine::replay::replay;
+    use fpbp_core::engines::{EngineConfig, build_engine};
     // an open 40 x 30 m floor with APs on a 10 m lattice
     let mut site = two_rooms_site();
     site.floors = vec![fpbp_core::site::open_floor_map(40.0, 30.0, 5.0, 1.0).unwrap()];

@@ -5,8 +5,52 @@
 //! (uppercase), `eddystone:NAMESPACE:INSTANCE` (uppercase hex, 20 and 12
 //! digits). The prefix is case-insensitive; UUIDs may omit hyphens; MACs may
 //! use `-` or no separator.
+//!
+//! WiFi access points are named by their BSSID, canonically lower-case
+//! `aa:bb:cc:dd:ee:ff`: [`normalize_bssid`], [`is_bssid`] and
+//! [`canonical_bssid`] are the one place that spelling is checked.
 
 use std::fmt;
+
+/// Whether `s` is a canonical BSSID: lower-case `aa:bb:cc:dd:ee:ff`.
+pub fn is_bssid(s: &str) -> bool {
+    s.len() == 17
+        && s.split(':').count() == 6
+        && s.split(':').all(|b| {
+            b.len() == 2
+                && b.bytes()
+                    .all(|c| c.is_ascii_digit() || (b'a'..=b'f').contains(&c))
+        })
+}
+
+/// A BSSID in its canonical (lower-case) spelling: `id` itself when it has
+/// no upper case (no allocation: most BSSIDs a phone hears already are),
+/// else a lower-cased copy.
+pub fn canonical_bssid(id: &str) -> std::borrow::Cow<'_, str> {
+    if id.bytes().any(|b| b.is_ascii_uppercase()) {
+        std::borrow::Cow::Owned(id.to_ascii_lowercase())
+    } else {
+        std::borrow::Cow::Borrowed(id)
+    }
+}
+
+/// `aa:bb:cc:dd:ee:ff` (lower case) from any case, with `:` or `-`; `None`
+/// when it is not six hex pairs (the log readers and the JNI bridge).
+pub fn normalize_bssid(s: &str) -> Option<String> {
+    let mut parts = s.split([':', '-']);
+    let mut out = String::with_capacity(17);
+    for k in 0..6 {
+        let p = parts.next()?;
+        if p.len() != 2 || !p.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return None;
+        }
+        if k > 0 {
+            out.push(':');
+        }
+        out.push_str(&p.to_ascii_lowercase());
+    }
+    parts.next().is_none().then_some(out)
+}
 
 /// A parsed beacon id.
 #[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Hash)]

@@ -145,6 +145,26 @@ impl BleFrontEnd {
         out
     }
 
+    /// The floor a filtered BLE set (strongest first) votes for, by the
+    /// floor tracker's `floor.vote` rule.
+    pub fn floor_vote(
+        cfg: &crate::floor::FloorConfig,
+        beacons: &[FilteredBeacon],
+        top_n: usize,
+    ) -> Option<i32> {
+        match cfg.vote {
+            crate::floor::FloorVote::Likely => Self::likely_floor(beacons, top_n),
+            crate::floor::FloorVote::Strongest => beacons
+                .iter()
+                .max_by(|a, b| {
+                    a.rssi_dbm
+                        .total_cmp(&b.rssi_dbm)
+                        .then(b.index.cmp(&a.index))
+                })
+                .map(|b| b.floor),
+        }
+    }
+
     /// The floor the current set points to: the most common floor among the
     /// `top_n` strongest beacons, ties broken by the strongest beacon's floor.
     pub fn likely_floor(beacons: &[FilteredBeacon], top_n: usize) -> Option<i32> {

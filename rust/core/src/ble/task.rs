@@ -133,7 +133,11 @@ impl BleTask {
         // with few or no beacons, e.g. a mezzanine)
         let (floor, beacons) = match self.floors.as_mut() {
             Some(ft) if ft.has_pressure() => {
-                if let Some(v) = ft.vote(&self.front.current(t_ns), self.cfg.gml.top_n) {
+                if let Some(v) = BleFrontEnd::floor_vote(
+                    ft.config(),
+                    &self.front.current(t_ns),
+                    self.cfg.gml.top_n,
+                ) {
                     ft.on_ble_floor(t_ns, v);
                 }
                 match ft.floor() {

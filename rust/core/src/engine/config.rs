@@ -1,15 +1,15 @@
-//! The one config object an engine is built from (JSON through JNI and the CLI).
+//! The periods of an engine's two tasks (`tasks` in the engine config).
 
 use serde::{Deserialize, Serialize};
-
-use crate::{Result, ble::BleConfig, fusion::FusionConfig, pdr::PdrConfig};
 
 /// Periods of the two tasks.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct TaskConfig {
-    /// T_gml: period of the BLE task, ms. Default 1000.
-    pub gml_period_ms: u32,
+    /// T_gml: period of the radio task, ms. Default 1000. Also read under
+    /// its earlier name `gml_period_ms`.
+    #[serde(alias = "gml_period_ms")]
+    pub radio_period_ms: u32,
     /// T_fusion: period of the fusion task, ms. Default 200.
     pub fusion_period_ms: u32,
 }
@@ -17,80 +17,20 @@ pub struct TaskConfig {
 impl Default for TaskConfig {
     fn default() -> Self {
         TaskConfig {
-            gml_period_ms: 1000,
+            radio_period_ms: 1000,
             fusion_period_ms: 200,
         }
     }
 }
 
-/// Everything an engine needs besides the site.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct EngineConfig {
-    /// Seed of every RNG the engine owns.
-    pub seed: u64,
-    pub tasks: TaskConfig,
-    pub pdr: PdrConfig,
-    pub ble: BleConfig,
-    pub fusion: FusionConfig,
-    /// Engine `prox-pf` (proximity-PF paper).
-    pub prox_pf: crate::engines::prox_pf::ProxPfConfig,
-    /// Engine `ppsa` (PPSA paper).
-    pub ppsa: crate::engines::ppsa::PpsaConfig,
-    /// The EKF engines (`robust-ekf`, `tc-ekf`) and the floor tracker.
-    pub ekf: crate::kalman::EkfConfig,
-    /// WiFi: fresh results, BSSID grouping, AP calibration, `wifi-wcentroid`.
-    pub wifi: crate::wifi::WifiConfig,
-    /// Engine `tcpf` (tightly coupled radio-likelihood particle filter).
-    pub tcpf: crate::engines::tcpf::TcpfConfig,
-}
+#[cfg(test)]
+mod tests {
+    use super::TaskConfig;
 
-impl Default for EngineConfig {
-    fn default() -> Self {
-        EngineConfig {
-            seed: 1,
-            tasks: TaskConfig::default(),
-            pdr: PdrConfig::default(),
-            ble: BleConfig::default(),
-            fusion: FusionConfig::default(),
-            prox_pf: Default::default(),
-            ppsa: Default::default(),
-            ekf: crate::kalman::EkfConfig::default(),
-            wifi: crate::wifi::WifiConfig::default(),
-            tcpf: Default::default(),
-        }
-    }
-}
-
-impl EngineConfig {
-    /// Parses a JSON config (missing fields take their defaults, unknown ones are errors).
-    pub fn from_json(text: &str) -> Result<Self> {
-        let cfg: EngineConfig = serde_json::from_str(text).map_err(|e| {
-            let (field, msg) = crate::site::json_path::describe(text.as_bytes(), &e);
-            crate::Error::config(field, msg)
-        })?;
-        cfg.validate()?;
-        Ok(cfg)
-    }
-
-    /// Checks every field's range.
-    pub fn validate(&self) -> Result<()> {
-        if self.tasks.gml_period_ms == 0 {
-            return Err(crate::Error::config("tasks.gml_period_ms", "must be > 0"));
-        }
-        if self.tasks.fusion_period_ms == 0 {
-            return Err(crate::Error::config(
-                "tasks.fusion_period_ms",
-                "must be > 0",
-            ));
-        }
-        self.pdr.validate()?;
-        self.ble.validate()?;
-        self.prox_pf.validate()?;
-        self.ppsa.validate()?;
-        self.ekf.validate()?;
-        self.wifi.validate()?;
-        self.tcpf.validate()?;
-        self.fusion.validate()
+    #[test]
+    fn the_radio_period_reads_under_its_earlier_name_too() {
+        let old: TaskConfig = serde_json::from_str(r#"{"gml_period_ms": 700}"#).unwrap();
+        let new: TaskConfig = serde_json::from_str(r#"{"radio_period_ms": 700}"#).unwrap();
+        assert_eq!((old.radio_period_ms, old), (700, new));
     }
 }

@@ -2,43 +2,43 @@
 //!
 //! Inputs are sensor events, BLE observations and GNSS fixes; outputs are
 //! poses. Each engine has up to two periodic tasks, as in the FP-BP paper's
-//! Runnables: [`Task::Ble`] (GML for FP-BP, every T_gml) and [`Task::Fusion`]
+//! Runnables: [`Task::Radio`] (GML for FP-BP, every T_gml) and [`Task::Fusion`]
 //! (particle filter + PPC for FP-BP, every T_fusion). On a phone they run on
 //! their own executors; in replay [`replay::Replayer`] drives them at their
 //! nominal periods by the log's clock, so a replay is deterministic.
 
 pub mod config;
-pub mod factory;
 pub mod inputs;
 pub mod replay;
+pub mod start;
 
 use serde::{Deserialize, Serialize};
 
 use crate::events::{BleObservation, GnssFix, SensorEvent, WifiScan};
 
-pub use config::{EngineConfig, TaskConfig};
-pub use factory::{
-    ENGINE_NAMES, EngineData, build_engine, build_engine_with, check_initial_position,
-};
+pub use config::TaskConfig;
 pub use inputs::CountedInputs;
+pub use start::check_initial_position;
 
 /// The periodic tasks of an engine.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize)]
 pub enum Task {
-    /// BLE positioning task (GML in FP-BP), every `tasks.gml_period_ms`.
-    Ble,
+    /// The radio task (BLE and WiFi: GML in FP-BP, the measurement set in
+    /// tcpf), every `tasks.radio_period_ms` (the paper's T_gml).
+    Radio,
     /// Fusion task (PF + PPC in FP-BP), every `tasks.fusion_period_ms`.
     Fusion,
 }
 
 impl Task {
     /// Both tasks, in the order they run when due at the same instant.
-    pub const ALL: [Task; 2] = [Task::Ble, Task::Fusion];
+    pub const ALL: [Task; 2] = [Task::Radio, Task::Fusion];
 
-    /// Short name used in metrics ("gml", "fusion").
+    /// Short name used in metrics ("radio", "fusion"; metrics.json version 2
+    /// called the radio task "gml").
     pub fn metric_name(self) -> &'static str {
         match self {
-            Task::Ble => "gml",
+            Task::Radio => "radio",
             Task::Fusion => "fusion",
         }
     }
@@ -152,7 +152,7 @@ pub struct EngineStats {
 /// Recording calls (`on_sensor`, `on_ble`, `on_gnss`, `on_wifi`) never fail:
 /// bad samples are counted in [`EngineStats`]. An input an engine does not
 /// use is ignored (the defaults); [`CountedInputs`], which every engine from
-/// [`build_engine`] is wrapped in, counts the inputs handed to it. Engines
+/// [`crate::engines::build_engine`] is wrapped in, counts the inputs handed to it. Engines
 /// own their RNGs, seeded from the config, so the same inputs give the same
 /// poses.
 pub trait Engine: Send {

@@ -2,7 +2,7 @@
 //! `wifi-wcentroid`, the same task on WiFi access points (a causal yardstick
 //! for WiFi: the site's `access_points` stand in for beacons, each new scan
 //! result is one observation). One task (front end + positioner + eq. 22
-//! mean filter) every `tasks.gml_period_ms`; no fusion task. The pose is the
+//! mean filter) every `tasks.radio_period_ms`; no fusion task. The pose is the
 //! last fix; a run without a fix leaves it unchanged and counts `no_fix`.
 
 use std::sync::Arc;
@@ -10,7 +10,8 @@ use std::sync::Arc;
 use crate::Result;
 use crate::Vec2;
 use crate::ble::{BeaconRegistry, BleFrontEnd, BleTask, PositionerKind};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent, WifiScan};
 use crate::site::{BeaconSpec, Site};
 use crate::wifi::FreshResults;
@@ -67,7 +68,7 @@ impl BleOnlyEngine {
             kind,
             wifi,
             task,
-            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             pose: None,
             init,
             given: false,
@@ -175,7 +176,7 @@ impl Engine for BleOnlyEngine {
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
-        if task != Task::Ble {
+        if task != Task::Radio {
             return;
         }
         // the start (or a position set since the last run) is the previous
@@ -215,7 +216,7 @@ impl Engine for BleOnlyEngine {
     }
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
-        (task == Task::Ble).then_some(self.period_ns)
+        (task == Task::Radio).then_some(self.period_ns)
     }
 
     fn pose(&self) -> Option<Pose> {
@@ -235,8 +236,8 @@ impl Engine for BleOnlyEngine {
 mod tests {
     use super::*;
     use crate::ble::pathloss::{PathLoss, range_m};
-    use crate::engine::build_engine;
     use crate::engine::replay::replay;
+    use crate::engines::build_engine;
     use crate::events::{LogEvent, TruthPoint};
     use crate::site::testkit::{beacon_site, open_map};
 
@@ -320,7 +321,7 @@ mod tests {
                     e.on_ble(&o);
                 }
             }
-            e.run_task(Task::Ble, 1_000_000_000);
+            e.run_task(Task::Radio, 1_000_000_000);
             let at = InitialPosition {
                 x_m: 30.0,
                 y_m: 20.0,
@@ -338,7 +339,7 @@ mod tests {
                 e.set_position(1_200_000_000, InitialPosition { floor: 9, ..at })
                     .is_err()
             );
-            e.run_task(Task::Ble, 2_000_000_000);
+            e.run_task(Task::Radio, 2_000_000_000);
             let p = e.pose().unwrap();
             assert_eq!(p.t_ns, 2_000_000_000, "{name}");
             // eq. 22 would average the fix with the tap point; after the reset

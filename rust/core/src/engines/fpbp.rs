@@ -2,7 +2,7 @@
 //! no PPC: the paper's ablation).
 //!
 //! Two tasks, as in the paper's Runnables, each owning its state:
-//! - [`BleSide`] (`Task::Ble`, every `tasks.gml_period_ms`): BLE front end +
+//! - [`BleSide`] (`Task::Radio`, every `tasks.radio_period_ms`): BLE front end +
 //!   GML + mean filter, publishes x_B.
 //! - [`FusionSide`] (`Task::Fusion`, every `tasks.fusion_period_ms`): PDR,
 //!   particle filter and PPC; consumes the steps detected since its last run,
@@ -29,7 +29,8 @@ pub use ble_side::BleSide;
 
 use crate::Vec2;
 use crate::ble::task::BleFix;
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fusion::recovery::{LikelihoodMonitor, dominant_room};
 use crate::fusion::{FusionConfig, ParticleFilter, PpcCase, ppc};
@@ -570,7 +571,7 @@ impl Engine for FpbpEngine {
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
-            Task::Ble => {
+            Task::Radio => {
                 let prev = self.fusion.pose().map(|p| Vec2::new(p.x_m, p.y_m));
                 match self.ble.run(t_ns, prev) {
                     Some(fix) => self.x_b = Some(fix),
@@ -583,7 +584,7 @@ impl Engine for FpbpEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         Some(match task {
-            Task::Ble => self.ble.period_ns,
+            Task::Radio => self.ble.period_ns,
             Task::Fusion => self.fusion.period_ns,
         })
     }

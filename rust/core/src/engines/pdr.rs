@@ -9,7 +9,8 @@
 
 use std::sync::Arc;
 
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::SensorEvent;
 use crate::pdr::Pdr;
 use crate::site::Site;
@@ -113,7 +114,7 @@ impl Engine for PdrEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         match task {
-            Task::Ble => None,
+            Task::Radio => None,
             Task::Fusion => Some(self.fusion_period_ns),
         }
     }
@@ -194,7 +195,7 @@ mod tests {
             heading_rad: None,
         };
         let mut eng = PdrEngine::new(open_site(), &EngineConfig::default(), Some(init)).unwrap();
-        assert_eq!(eng.task_period_ns(Task::Ble), None);
+        assert_eq!(eng.task_period_ns(Task::Radio), None);
         // 20 s of walking at 1.8 Hz, phone flat, top pointing north (identity quaternion).
         let q = UnitQuaternion::identity();
         let mut events = Vec::new();

@@ -37,7 +37,8 @@ use super::prox_pf::sample_walkable;
 use crate::ble::nlos::{NlosIdentifier, PathCondition, normpdf};
 use crate::ble::pathloss::{horizontal_m, range_m};
 use crate::ble::{BleFrontEnd, FilteredBeacon};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fusion::random::in_disc;
 use crate::geometry::wrap_angle;
@@ -555,8 +556,8 @@ impl Engine for PpsaEngine {
 mod tests {
     use super::*;
     use crate::ble::pathloss::PathLoss;
-    use crate::engine::build_engine;
     use crate::engine::replay::{ReplayOutput, replay};
+    use crate::engines::build_engine;
     use crate::engines::prox_pf::testkit::*;
     use crate::events::LogEvent;
 
@@ -737,8 +738,8 @@ mod tests {
 mod gml_switch_tests {
     use crate::ble::nlos::NlosGmlMode;
     use crate::engine::replay::replay;
-    use crate::engine::{EngineConfig, build_engine};
     use crate::engines::prox_pf::testkit::*;
+    use crate::engines::{EngineConfig, build_engine};
 
     #[test]
     fn gml_nlos_switch_changes_the_beacon_set() {

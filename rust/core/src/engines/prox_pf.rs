@@ -34,7 +34,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::ble::proximity::{Proximity, ProximityConfig};
 use crate::ble::{BleFrontEnd, FilteredBeacon};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fusion::{Cloud, MeasurementModel, MotionModel};
 use crate::pdr::Pdr;

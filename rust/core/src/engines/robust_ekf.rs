@@ -24,7 +24,8 @@ use crate::Result;
 use crate::Vec2;
 use crate::ble::{BleConfig, BleFrontEnd};
 use crate::engine::Task as T;
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, SensorEvent};
 use crate::fingerprint::{FingerprintSet, wknn};
 use crate::floor::FloorTracker;
@@ -132,7 +133,7 @@ impl RobustEkfEngine {
             rejected_fixes: 0,
             last_fix: None,
             pose: None,
-            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
         })
@@ -238,7 +239,7 @@ impl Engine for RobustEkfEngine {
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
         match task {
-            T::Ble => {
+            T::Radio => {
                 let Some((floor, pos)) = self.fingerprint_fix(t_ns) else {
                     self.stats.no_fix += 1;
                     return;
@@ -326,7 +327,7 @@ impl Engine for RobustEkfEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         Some(match task {
-            T::Ble => self.ble_period_ns,
+            T::Radio => self.ble_period_ns,
             T::Fusion => self.fusion_period_ns,
         })
     }
@@ -349,8 +350,8 @@ impl Engine for RobustEkfEngine {
 mod tests {
     use super::*;
     use crate::ble::pathloss::{PathLoss, range_m};
-    use crate::engine::build_engine;
     use crate::engine::replay::replay;
+    use crate::engines::build_engine;
     use crate::events::SensorData;
     use crate::events::{GnssFix, LogEvent, TruthPoint};
     use crate::site::testkit::{beacon_site, open_map};
@@ -729,7 +730,7 @@ mod tests {
 
     #[test]
     fn survey_database_is_used_when_given() {
-        use crate::engine::{EngineData, build_engine_with};
+        use crate::engines::{EngineData, build_engine_with};
         use crate::fingerprint::SurveyBuilder;
         use crate::fingerprint::survey::tests as st;
         let site = st::site();

@@ -12,7 +12,8 @@
 
 use std::sync::Arc;
 
-use crate::engine::{Engine, EngineConfig, EngineStats, Pose, PoseSource, Task};
+use crate::engine::{Engine, EngineStats, Pose, PoseSource, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, WifiScan};
 use crate::radio::RadioModel;
 use crate::radio::reference_scans::{CandidateFix, ScanMetric, ScanTrail, candidate_fix};
@@ -47,7 +48,7 @@ impl ScanKnnEngine {
             tau: a.tau(),
             metric: a.metric,
             wifi_max_age_s: config.tcpf.wifi_max_age_s,
-            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             pose: None,
             stats: EngineStats::default(),
         })
@@ -121,13 +122,13 @@ impl Engine for ScanKnnEngine {
     }
 
     fn run_task(&mut self, task: Task, t_ns: i64) {
-        if task == Task::Ble {
+        if task == Task::Radio {
             self.fix(t_ns);
         }
     }
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
-        (task == Task::Ble).then_some(self.period_ns)
+        (task == Task::Radio).then_some(self.period_ns)
     }
 
     fn pose(&self) -> Option<Pose> {

@@ -21,7 +21,8 @@ use nalgebra::{DMatrix, DVector};
 use crate::Result;
 use crate::Vec2;
 use crate::ble::{BleConfig, BleFrontEnd, FilteredBeacon};
-use crate::engine::{Engine, EngineConfig, EngineStats, InitialPosition, Pose, Task};
+use crate::engine::{Engine, EngineStats, InitialPosition, Pose, Task};
+use crate::engines::EngineConfig;
 use crate::events::{BleObservation, GnssFix, SensorData, SensorEvent};
 use crate::floor::FloorTracker;
 use crate::kalman::walking_direction::WalkingDirection;
@@ -104,7 +105,7 @@ impl TcEkfEngine {
             last_gnss: None,
             pdr_since_gnss: Vec2::zeros(),
             pose: None,
-            ble_period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             gnss_used: 0,
             walking: config.ekf.walking_direction.then(|| {
@@ -317,7 +318,7 @@ pub(super) fn tracked_floor(
     top_n: usize,
     ble_floor: i32,
 ) -> i32 {
-    if let Some(v) = floors.vote(beacons, top_n) {
+    if let Some(v) = crate::ble::BleFrontEnd::floor_vote(floors.config(), beacons, top_n) {
         floors.on_ble_floor(t_ns, v);
     }
     if floors.has_pressure() {
@@ -414,7 +415,7 @@ impl Engine for TcEkfEngine {
     fn run_task(&mut self, task: Task, t_ns: i64) {
         self.add_process_noise(t_ns);
         match task {
-            Task::Ble => {
+            Task::Radio => {
                 if !self.ble_update(t_ns) {
                     self.stats.no_fix += 1;
                 }
@@ -452,7 +453,7 @@ impl Engine for TcEkfEngine {
 
     fn task_period_ns(&self, task: Task) -> Option<i64> {
         Some(match task {
-            Task::Ble => self.ble_period_ns,
+            Task::Radio => self.ble_period_ns,
             Task::Fusion => self.fusion_period_ns,
         })
     }
@@ -542,12 +543,12 @@ mod tests {
         let mut e = engine(Vec2::new(5.0, 2.0), &EngineConfig::default());
         // one loud report of beacon 0 (3 m away): a proximity fix at (2, 2)
         report(&mut e, SEC / 2, 0, -58.0);
-        e.run_task(Task::Ble, SEC);
+        e.run_task(Task::Radio, SEC);
         let after_fix = pos(&e);
         assert!(after_fix.x < 4.5, "{after_fix:?}");
         // nothing new heard for the next 4 s: nothing may move
         for k in 2..6 {
-            e.run_task(Task::Ble, k * SEC);
+            e.run_task(Task::Radio, k * SEC);
         }
         assert!(
             (pos(&e) - after_fix).norm() < 1e-9,
@@ -570,7 +571,7 @@ mod tests {
         for k in 1..=20 {
             // a phone 6 dB weaker than the models, standing still
             hear(&mut e, k * SEC - SEC / 2, at, &[0, 1, 2], -6.0);
-            e.run_task(Task::Ble, k * SEC);
+            e.run_task(Task::Radio, k * SEC);
         }
         assert_eq!(e.rssi_bias_db().0, 0.0);
     }
@@ -588,7 +589,7 @@ mod tests {
         let mut e = engine(at, &EngineConfig::default());
         for k in 1..=30 {
             hear(&mut e, k * SEC - SEC / 2, at, &[0, 1, 2], -6.0);
-            e.run_task(Task::Ble, k * SEC);
+            e.run_task(Task::Radio, k * SEC);
         }
         let (b, sd) = e.rssi_bias_db();
         assert!((b + 6.0).abs() < 1.5 && sd < 2.0, "bias {b} +- {sd}");
@@ -610,7 +611,7 @@ mod tests {
             // beacon 0 at (2, 2) read 2 dB below R0 -59, the filter at (8, 2)
             let mut e = engine(Vec2::new(8.0, 2.0), &c);
             report(&mut e, SEC / 2, 0, rssi);
-            e.run_task(Task::Ble, SEC);
+            e.run_task(Task::Radio, SEC);
             pos(&e).x < 7.0
         };
         assert!(fixes(0.0, -61.0));
@@ -651,7 +652,7 @@ mod tests {
         let mut gated = engine(start, &cfg);
         for e in [&mut paper, &mut gated] {
             report(e, SEC / 2, 0, -56.0);
-            e.run_task(Task::Ble, SEC);
+            e.run_task(Task::Radio, SEC);
         }
         // the plain update moves by the gain P / (P + R) = 1 / (1 + 4) of 20 m
         assert!(pos(&paper).x < 19.0, "{:?}", pos(&paper));

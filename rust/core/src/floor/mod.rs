@@ -508,22 +508,12 @@ impl FloorTracker {
         });
     }
 
-    /// The floor a filtered BLE set (strongest first) votes for, by `floor.vote`.
-    pub fn vote(&self, beacons: &[crate::ble::FilteredBeacon], top_n: usize) -> Option<i32> {
-        match self.cfg.vote {
-            FloorVote::Likely => crate::ble::BleFrontEnd::likely_floor(beacons, top_n),
-            FloorVote::Strongest => beacons
-                .iter()
-                .max_by(|a, b| {
-                    a.rssi_dbm
-                        .total_cmp(&b.rssi_dbm)
-                        .then(b.index.cmp(&a.index))
-                })
-                .map(|b| b.floor),
-        }
+    /// The tracker's config (`floor`).
+    pub fn config(&self) -> &FloorConfig {
+        &self.cfg
     }
 
-    /// One BLE floor vote (e.g. [`FloorTracker::vote`]) at `t_ns`.
+    /// One BLE floor vote (e.g. the BLE front end's `floor_vote`) at `t_ns`.
     pub fn on_ble_floor(&mut self, t_ns: i64, floor: i32) {
         if self.floor_height(floor).is_none() {
             return;

@@ -124,23 +124,7 @@ pub fn robust_update(
     })
 }
 
-/// Wraps an angle to (-pi, pi].
-///
-/// Not [`crate::geometry::wrap_angle`], though it agrees with it at ±pi,
-/// on multiples of pi, on positive angles and on NaN: a negative angle goes
-/// through `a + 2 pi` here and comes back up to half an ulp of 2 pi off
-/// (`wrap_pi(-1e-10)` is -1.00000008e-10, `wrap_pi(-1e-20)` is 0), where
-/// `wrap_angle` returns an angle already in range unchanged. The robust
-/// EKF's heading innovations go through it, so its tracks depend on these
-/// bits (unit test).
-pub fn wrap_pi(a: f64) -> f64 {
-    let t = std::f64::consts::TAU;
-    let mut w = a.rem_euclid(t);
-    if w > std::f64::consts::PI {
-        w -= t;
-    }
-    w
-}
+pub use crate::geometry::wrap_pi;
 
 #[cfg(test)]
 mod tests {

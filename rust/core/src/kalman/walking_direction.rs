@@ -12,15 +12,7 @@ use std::collections::VecDeque;
 
 use crate::Vec2;
 
-/// Wraps an angle to (-pi, pi].
-fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
+use crate::geometry::wrap_pi as wrap;
 
 /// Eq. 9 state: recent BLE positions and phone headings.
 #[derive(Debug, Clone)]

@@ -13,7 +13,7 @@ mod raycast;
 mod rooms;
 mod walk;
 
-pub use plan::{ClassifiedPlan, classify_png};
+pub use plan::{ClassifiedPlan, Legend, classify_png};
 pub use raycast::crosses_wall_sampled;
 pub use rooms::{Room, RoomId};
 pub use walk::{TRACK_WALL_STEP_M, WALK_MAX_NODES, WalkStep};

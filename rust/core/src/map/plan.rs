@@ -5,7 +5,34 @@
 //! `max_unclassified_fraction` the plan is rejected.
 
 use super::Feature;
-use crate::{Error, Result, site::Legend};
+use serde::{Deserialize, Serialize};
+
+use crate::{Error, Result};
+
+/// Colours (RGB) of the stylized plan and the tolerance of the classifier.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Legend {
+    pub wall: [u8; 3],
+    pub door: [u8; 3],
+    pub walkable: [u8; 3],
+    /// Largest Euclidean RGB distance at which a pixel still takes a class.
+    pub tolerance: f64,
+    /// Above this fraction of unclassified pixels the plan is rejected.
+    pub max_unclassified_fraction: f64,
+}
+
+impl Default for Legend {
+    fn default() -> Self {
+        Legend {
+            wall: [0, 0, 0],
+            door: [255, 0, 0],
+            walkable: [255, 255, 255],
+            tolerance: 60.0,
+            max_unclassified_fraction: 0.01,
+        }
+    }
+}
 
 /// The classified pixels of one plan image.
 #[derive(Debug, Clone)]

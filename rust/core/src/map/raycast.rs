@@ -496,7 +496,7 @@ mod tests {
         static MAP: OnceLock<FloorMap> = OnceLock::new();
         MAP.get_or_init(|| {
             let png = include_bytes!("../../../../maps/demo/plan.png");
-            let plan = super::super::classify_png(png, &crate::site::Legend::default(), "plan.png")
+            let plan = super::super::classify_png(png, &crate::map::Legend::default(), "plan.png")
                 .unwrap();
             FloorMap::from_classified_plan(plan, 10.0, 1, 1.0)
         })

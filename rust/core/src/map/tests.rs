@@ -256,7 +256,7 @@ fn demo() -> &'static FloorMap {
     static MAP: OnceLock<FloorMap> = OnceLock::new();
     MAP.get_or_init(|| {
         let png = include_bytes!("../../../../maps/demo/plan.png");
-        let plan = classify_png(png, &crate::site::Legend::default(), "plan.png").unwrap();
+        let plan = classify_png(png, &super::Legend::default(), "plan.png").unwrap();
         FloorMap::from_classified_plan(plan, 10.0, 1, 1.0)
     })
 }

@@ -7,7 +7,6 @@
 //! Madgwick filter; without a magnetometer Madgwick runs IMU-only.
 
 pub mod heading;
-pub mod heading_bias;
 pub mod madgwick;
 pub mod orientation;
 pub mod steps;

@@ -5,7 +5,7 @@ use std::sync::Arc;
 
 use super::*;
 use crate::engine::replay::replay;
-use crate::engine::{EngineConfig, EngineData, build_engine_with};
+use crate::engines::{EngineConfig, EngineData, build_engine_with};
 use crate::events::{BleObservation, LogEvent, TruthPoint};
 use crate::site::testkit::{beacon_site, open_map};
 

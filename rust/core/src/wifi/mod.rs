@@ -22,27 +22,7 @@ use crate::events::{WifiResult, WifiScan};
 
 pub use config::WifiConfig;
 
-/// Whether `s` is a canonical BSSID: lower-case `aa:bb:cc:dd:ee:ff`.
-pub fn is_bssid(s: &str) -> bool {
-    s.len() == 17
-        && s.split(':').count() == 6
-        && s.split(':').all(|b| {
-            b.len() == 2
-                && b.bytes()
-                    .all(|c| c.is_ascii_digit() || (b'a'..=b'f').contains(&c))
-        })
-}
-
-/// A BSSID in its canonical (lower-case) spelling: `id` itself when it has
-/// no upper case (no allocation: most BSSIDs a phone hears already are),
-/// else a lower-cased copy.
-pub fn canonical_bssid(id: &str) -> std::borrow::Cow<'_, str> {
-    if id.bytes().any(|b| b.is_ascii_uppercase()) {
-        std::borrow::Cow::Owned(id.to_ascii_lowercase())
-    } else {
-        std::borrow::Cow::Borrowed(id)
-    }
-}
+pub use crate::ble::beacon_id::{canonical_bssid, is_bssid, normalize_bssid};
 
 /// A WiFi band from a channel centre frequency.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]

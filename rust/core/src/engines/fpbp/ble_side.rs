@@ -3,14 +3,14 @@
 
 use crate::Vec2;
 use crate::ble::{BleTask, PositionerKind, task::BleFix};
-use crate::engine::EngineConfig;
+use crate::engines::EngineConfig;
 use crate::events::BleObservation;
 use crate::site::Site;
 
 /// The BLE task: front end, GML and the eq. 22 mean filter.
 pub struct BleSide {
     task: BleTask,
-    /// Period of `Task::Ble`, ns.
+    /// Period of `Task::Radio`, ns.
     pub(super) period_ns: i64,
 }
 
@@ -19,7 +19,7 @@ impl BleSide {
     pub fn new(site: &Site, config: &EngineConfig) -> Self {
         BleSide {
             task: BleTask::new(PositionerKind::Gml, &config.ble, site),
-            period_ns: i64::from(config.tasks.gml_period_ms) * 1_000_000,
+            period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
         }
     }
 

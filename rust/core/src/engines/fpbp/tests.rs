@@ -138,7 +138,7 @@ fn set_position_moves_the_filter_now() {
 fn engine_set_position_clears_the_old_ble_fix() {
     for name in ["fpbp", "bp"] {
         let mut e =
-            crate::engine::build_engine(name, corridor_site(), &EngineConfig::default(), None)
+            crate::engines::build_engine(name, corridor_site(), &EngineConfig::default(), None)
                 .unwrap();
         assert!(e.pose().is_none());
         let at = InitialPosition {

@@ -4,8 +4,8 @@
 use super::testkit::*;
 use super::*;
 use crate::ble::pathloss::PathLoss;
-use crate::engine::build_engine;
 use crate::engine::replay::{ReplayOutput, replay};
+use crate::engines::build_engine;
 use crate::events::LogEvent;
 use crate::map::{Feature, FloorMap};
 

@@ -107,14 +107,14 @@ class FpbpEngine private constructor(
         altM ?: Double.NaN, accuracyM ?: Double.NaN, speedMps ?: Double.NaN, bearingDeg ?: Double.NaN,
     )
 
-    /** Runs the BLE (GML) task once at [tNs] (what [GmlTask] calls). */
-    fun runGml(tNs: Long) = NativeBridge.runGml(handle, tNs)
+    /** Runs the BLE (GML) task once at [tNs] (what [RadioTask] calls). */
+    fun runRadio(tNs: Long) = NativeBridge.runRadio(handle, tNs)
 
     /** Runs the fusion task once at [tNs] (what [FusionTask] calls). */
     fun runFusion(tNs: Long) = NativeBridge.runFusion(handle, tNs)
 
     /** Period of the BLE (GML) task, ns; 0 when the engine has none. */
-    val gmlPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_GML)
+    val radioPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_RADIO)
 
     /** Period of the fusion task, ns; 0 when the engine has none. */
     val fusionPeriodNs: Long get() = NativeBridge.taskPeriodNs(handle, NativeBridge.TASK_FUSION)

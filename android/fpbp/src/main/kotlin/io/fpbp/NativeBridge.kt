@@ -10,8 +10,8 @@ package io.fpbp
  * sample: it is counted in [stats]. Every function may be called from any thread.
  */
 object NativeBridge {
-    /** Task code of the BLE (GML) task. */
-    const val TASK_GML: Int = 0
+    /** Task code of the radio task (BLE and WiFi; GML in FP-BP). */
+    const val TASK_RADIO: Int = 0
 
     /** Task code of the fusion (PF + PPC) task. */
     const val TASK_FUSION: Int = 1
@@ -106,13 +106,13 @@ object NativeBridge {
         bearingDeg: Double,
     )
 
-    /** Runs the BLE (GML) task once at [tNs]. */
-    @JvmStatic external fun runGml(handle: Long, tNs: Long)
+    /** Runs the radio task (BLE and WiFi; GML in FP-BP) once at [tNs]. */
+    @JvmStatic external fun runRadio(handle: Long, tNs: Long)
 
     /** Runs the fusion task once at [tNs]. */
     @JvmStatic external fun runFusion(handle: Long, tNs: Long)
 
-    /** The engine's period of [task] ([TASK_GML] or [TASK_FUSION]), ns; 0 if it has none. */
+    /** The engine's period of [task] ([TASK_RADIO] or [TASK_FUSION]), ns; 0 if it has none. */
     @JvmStatic external fun taskPeriodNs(handle: Long, task: Int): Long
 
     /**

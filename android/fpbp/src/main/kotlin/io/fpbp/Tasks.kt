@@ -9,17 +9,17 @@ import java.util.concurrent.atomic.AtomicLong
 import java.util.concurrent.atomic.AtomicReference
 
 /**
- * The BLE positioning task of the FP-BP paper (GML over the candidate grid),
- * as a [Runnable]: each run calls the engine's BLE task at [clock]'s time.
- * It meets [FusionTask] only inside the engine, through x_B.
+ * The radio task (BLE and WiFi; in the FP-BP paper the GML positioning over
+ * the candidate grid) as a [Runnable]: each run calls the engine's radio task
+ * at [clock]'s time. It meets [FusionTask] only inside the engine.
  */
-class GmlTask(
+class RadioTask(
     private val engine: FpbpEngine,
     private val clock: Clock,
     private val afterRun: (() -> Unit)? = null,
 ) : Runnable {
     override fun run() {
-        engine.runGml(clock.nowNs())
+        engine.runRadio(clock.nowNs())
         afterRun?.invoke()
     }
 }
@@ -41,8 +41,8 @@ class FusionTask(
 }
 
 /**
- * Runs [GmlTask] and [FusionTask] on their own single-thread
- * [ScheduledExecutorService]s at the engine's periods (`tasks.gml_period_ms`,
+ * Runs [RadioTask] and [FusionTask] on their own single-thread
+ * [ScheduledExecutorService]s at the engine's periods (`tasks.radio_period_ms`,
  * `tasks.fusion_period_ms` of the config), as the paper's Runnables do.
  * [onPose] receives the latest pose after each fusion run; [afterTask] is
  * called after every run of either task (delivery checks: a BLE-only engine
@@ -60,7 +60,7 @@ class TaskScheduler @JvmOverloads constructor(
     onPose: ((Pose) -> Unit)? = null,
     afterTask: (() -> Unit)? = null,
 ) : AutoCloseable {
-    private val gmlExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-gml"))
+    private val radioExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-radio"))
     private val fusionExecutor: ScheduledExecutorService = Executors.newSingleThreadScheduledExecutor(named("fpbp-fusion"))
     private val error = AtomicReference<Throwable?>(null)
     private val reported = AtomicBoolean(false)
@@ -85,11 +85,11 @@ class TaskScheduler @JvmOverloads constructor(
         if (reported.compareAndSet(false, true)) listener(t)
     }
 
-    private val gmlCount = AtomicLong()
+    private val radioCount = AtomicLong()
     private val fusionCount = AtomicLong()
 
-    /** Completed runs of the GML task. */
-    val gmlRuns: Long get() = gmlCount.get()
+    /** Completed runs of the radio task. */
+    val radioRuns: Long get() = radioCount.get()
 
     /** Completed runs of the fusion task. */
     val fusionRuns: Long get() = fusionCount.get()
@@ -97,14 +97,14 @@ class TaskScheduler @JvmOverloads constructor(
     /** The first error a task threw, if any. */
     val lastError: Throwable? get() = error.get()
 
-    /** Period the GML task runs at, ns (0 = not scheduled). */
-    val gmlPeriodNs: Long = engine.gmlPeriodNs
+    /** Period the radio task runs at, ns (0 = not scheduled). */
+    val radioPeriodNs: Long = engine.radioPeriodNs
 
     /** Period the fusion task runs at, ns (0 = not scheduled). */
     val fusionPeriodNs: Long = engine.fusionPeriodNs
 
     init {
-        schedule(gmlExecutor, GmlTask(engine, clock, afterTask), gmlPeriodNs, gmlCount)
+        schedule(radioExecutor, RadioTask(engine, clock, afterTask), radioPeriodNs, radioCount)
         val fusion = FusionTask(engine, clock, onPose)
         schedule(fusionExecutor, Runnable { fusion.run(); afterTask?.invoke() }, fusionPeriodNs, fusionCount)
     }
@@ -117,7 +117,7 @@ class TaskScheduler @JvmOverloads constructor(
                 runs.incrementAndGet()
             } catch (t: Throwable) {
                 error.compareAndSet(null, t)
-                gmlExecutor.shutdown()
+                radioExecutor.shutdown()
                 fusionExecutor.shutdown()
                 report()
                 throw t
@@ -127,9 +127,9 @@ class TaskScheduler @JvmOverloads constructor(
     }
 
     override fun close() {
-        gmlExecutor.shutdownNow()
+        radioExecutor.shutdownNow()
         fusionExecutor.shutdownNow()
-        gmlExecutor.awaitTermination(5, TimeUnit.SECONDS)
+        radioExecutor.awaitTermination(5, TimeUnit.SECONDS)
         fusionExecutor.awaitTermination(5, TimeUnit.SECONDS)
     }
 
@@ -143,7 +143,7 @@ class TaskScheduler @JvmOverloads constructor(
  *
  * task clocks start at the first event's time; before an event at `t` is
  * handed to the engine, every task whose next due time is <= `t` runs,
- * earliest first, GML before fusion on ties, with [clock] set to its due time,
+ * earliest first, radio before fusion on ties, with [clock] set to its due time,
  * and its due time advances by its period. [finish] runs what is due at the
  * last event's time. The pose after every task run that changed it is
  * appended to [track].
@@ -152,9 +152,9 @@ class LogClockDriver(
     private val engine: FpbpEngine,
     private val clock: ManualClock = ManualClock(),
 ) {
-    private val gml = GmlTask(engine, clock)
+    private val gml = RadioTask(engine, clock)
     private val fusion = FusionTask(engine, clock)
-    private val periods = longArrayOf(engine.gmlPeriodNs, engine.fusionPeriodNs)
+    private val periods = longArrayOf(engine.radioPeriodNs, engine.fusionPeriodNs)
     private val nextDue = arrayOfNulls<Long>(2)
     private var firstT: Long? = null
     private var lastT: Long? = null

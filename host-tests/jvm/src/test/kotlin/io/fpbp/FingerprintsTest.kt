@@ -34,7 +34,7 @@ class FingerprintsTest {
             for (k in 0 until 30) {
                 val t = k * 100_000_000L
                 TestSupport.openSiteBeacons.forEachIndexed { i, id -> e.onBleScan(t, id, scan[i]) }
-                if (k % 10 == 9) e.runGml(t)
+                if (k % 10 == 9) e.runRadio(t)
             }
             e.blePosition()
         }

@@ -58,7 +58,7 @@ class HammerTest {
                 bleSent.incrementAndGet()
                 Thread.sleep(0, 200_000)
             },
-            worker("gml") { engine.runGml(clock.get()); taskRuns.incrementAndGet() },
+            worker("gml") { engine.runRadio(clock.get()); taskRuns.incrementAndGet() },
             worker("fusion") { engine.runFusion(clock.get()); taskRuns.incrementAndGet() },
             worker("ui") {
                 engine.pose()?.let { p ->
@@ -113,7 +113,7 @@ class HammerTest {
 
     @Test
     fun scheduledTasksRunOnTheirExecutorsAtTheirPeriodsAndStopCleanly() {
-        val cfg = "{\"tasks\": {\"gml_period_ms\": 50, \"fusion_period_ms\": 10}}"
+        val cfg = "{\"tasks\": {\"radio_period_ms\": 50, \"fusion_period_ms\": 10}}"
         FpbpEngine.start(TestSupport.openSiteJson, TestSupport.repo.path, TestSupport.engine, cfg, InitialPosition(10.0, 6.0, 0)).use { e ->
             val t0 = System.nanoTime()
             val clock = Clock { System.nanoTime() - t0 + 1_000_000_000L }
@@ -128,13 +128,13 @@ class HammerTest {
             }
             val elapsedS = (System.nanoTime() - t0) / 1e9
             scheduler.close()
-            val (gml, fusion) = scheduler.gmlRuns to scheduler.fusionRuns
+            val (gml, fusion) = scheduler.radioRuns to scheduler.fusionRuns
             Thread.sleep(100)
-            assertEquals(gml to fusion, scheduler.gmlRuns to scheduler.fusionRuns, "tasks ran after close()")
+            assertEquals(gml to fusion, scheduler.radioRuns to scheduler.fusionRuns, "tasks ran after close()")
             assertEquals(null, scheduler.lastError)
-            println("scheduler: ${"%.2f".format(elapsedS)} s -> $gml GML runs (period 50 ms), $fusion fusion runs (period 10 ms)")
+            println("scheduler: ${"%.2f".format(elapsedS)} s -> $gml radio task runs (period 50 ms), $fusion fusion runs (period 10 ms)")
             // Fixed-rate executors on a loaded 2-core machine: at least a third of the nominal count.
-            if (e.gmlPeriodNs > 0) assertTrue(gml >= (elapsedS / 0.05 / 3).toLong() && gml <= (elapsedS / 0.05 + 2).toLong(), "GML runs $gml")
+            if (e.radioPeriodNs > 0) assertTrue(gml >= (elapsedS / 0.05 / 3).toLong() && gml <= (elapsedS / 0.05 + 2).toLong(), "radio task runs $gml")
             if (e.fusionPeriodNs > 0) assertTrue(fusion >= (elapsedS / 0.01 / 3).toLong() && fusion <= (elapsedS / 0.01 + 2).toLong(), "fusion runs $fusion")
         }
     }

@@ -34,9 +34,9 @@ class NativeErrorsTest {
     @Test
     fun badConfigJsonNamesTheField() {
         val e = assertThrows<IllegalArgumentException> {
-            NativeBridge.start(site, dir, "{\"tasks\": {\"gml_period_ms\": 0}}", TestSupport.engine, null, null)
+            NativeBridge.start(site, dir, "{\"tasks\": {\"radio_period_ms\": 0}}", TestSupport.engine, null, null)
         }
-        assertMessage(e, "tasks.gml_period_ms")
+        assertMessage(e, "tasks.radio_period_ms")
         val e2 = assertThrows<IllegalArgumentException> {
             NativeBridge.start(site, dir, "{\"no_such_field\": 1}", TestSupport.engine, null, null)
         }
@@ -91,7 +91,7 @@ class NativeErrorsTest {
         for (h in listOf(0L, -1L, Long.MAX_VALUE)) {
             assertThrows<IllegalStateException> { NativeBridge.onSensor(h, 1, 0, doubleArrayOf(0.0, 0.0, 9.8)) }
             assertThrows<IllegalStateException> { NativeBridge.onBleScan(h, 0, "mac:00:00:00:00:00:01", -70.0, Double.NaN) }
-            assertThrows<IllegalStateException> { NativeBridge.runGml(h, 0) }
+            assertThrows<IllegalStateException> { NativeBridge.runRadio(h, 0) }
             assertThrows<IllegalStateException> { NativeBridge.runFusion(h, 0) }
             assertThrows<IllegalStateException> { NativeBridge.getPose(h, out, LongArray(1)) }
             assertThrows<IllegalStateException> { NativeBridge.setPosition(h, 0, doubleArrayOf(1.0, 1.0, 0.0, Double.NaN)) }
@@ -143,9 +143,9 @@ class NativeErrorsTest {
 
     @Test
     fun taskPeriodsComeFromTheConfig() {
-        val cfg = "{\"tasks\": {\"gml_period_ms\": 700, \"fusion_period_ms\": 150}}"
+        val cfg = "{\"tasks\": {\"radio_period_ms\": 700, \"fusion_period_ms\": 150}}"
         FpbpEngine.start(site, dir, TestSupport.engine, cfg, InitialPosition(10.0, 6.0, 0)).use { e ->
-            val periods = listOf(e.gmlPeriodNs, e.fusionPeriodNs)
+            val periods = listOf(e.radioPeriodNs, e.fusionPeriodNs)
             // An engine may lack a task (period 0); the ones it has follow the config.
             assertTrue(periods.all { it == 0L || it == 700_000_000L || it == 150_000_000L }, "$periods")
             assertTrue(periods.any { it > 0 }, "engine has no periodic task: $periods")

@@ -9,7 +9,7 @@ import java.io.File
 import java.util.zip.GZIPInputStream
 
 /**
- * (a) A shipped log replayed through the JNI surface, with [GmlTask] and
+ * (a) A shipped log replayed through the JNI surface, with [RadioTask] and
  * [FusionTask] driven by the log's clock ([LogClockDriver]), gives the same
  * track, bit for bit, as the pure-Rust replay (`fpbp_core::engine::replay`)
  * of the same log, written by rust/jni/examples/replay_reference.rs.

@@ -21,7 +21,7 @@ object TestSupport {
             engines.isNotEmpty() -> engines.first().also {
                 println("NOTE: engine `$want` is not registered (have: $engines); host tests use `$it`")
             }
-            else -> error("no engine is registered in fpbp_core::engine::ENGINE_NAMES")
+            else -> error("no engine is registered in fpbp_core::engines::ENGINE_NAMES")
         }
     }
 

@@ -53,7 +53,7 @@ private const val POISONED = "engine state poisoned by an earlier panic"
 @Implements(value = FpbpEngine::class, isInAndroidSdk = false)
 class PanickingTaskShadow {
     @Implementation
-    fun runGml(tNs: Long): Unit = throw FpbpNativeException(POISONED)
+    fun runRadio(tNs: Long): Unit = throw FpbpNativeException(POISONED)
 
     @Implementation
     fun runFusion(tNs: Long): Unit = throw FpbpNativeException(POISONED)

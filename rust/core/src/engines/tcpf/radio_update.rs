@@ -1,0 +1,180 @@
+//! The radio measurement update: the cloud weighed by the likelihood of
+//! every heard RSSI at each particle, and its reused buffers.
+
+use std::sync::Arc;
+
+use super::TcpfEngine;
+use super::anchors::Anchor;
+use super::recovery::RadioFit;
+use crate::Vec2;
+use crate::fast_math::{exp_many, max_many};
+use crate::radio::Measurement;
+use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood};
+
+/// Reused buffers of the steps' wall checks and the radio update.
+#[derive(Default)]
+pub(super) struct Scratch {
+    /// The particles before a step, and which of them crossed a wall.
+    pub(super) before: Vec<Vec2>,
+    pub(super) crossed: Vec<bool>,
+    /// Log-likelihood per particle (the radio and the magnetic update).
+    pub(super) log_l: Vec<f64>,
+    /// The cloud's likelihood of the last radio update.
+    cloud: CloudLikelihood,
+    /// Exponents and their exp of one radio update.
+    exp_in: Vec<f64>,
+    exp_out: Vec<f64>,
+}
+
+impl TcpfEngine {
+    /// Weighs the particles with one measurement set, updates the phone
+    /// offset, the floor and, when the cloud has lost the radio, re-seeds.
+    pub(super) fn radio_update(
+        &mut self,
+        t_ns: i64,
+        meas: &[Measurement],
+        missing: &[(usize, f64)],
+        anchors: &[Anchor],
+    ) {
+        let lc = self.cfg.likelihood.clone();
+        let model = Arc::clone(&self.model);
+        let floor = self.floor;
+        let o = self.offset.phone.mean_db();
+        let c = self.cfg.converged_radio_scale;
+        let (lo, hi) = (
+            self.cfg.converged_spread_lo_m,
+            self.cfg.converged_spread_hi_m,
+        );
+        let spread_before = self.pf.spread_m();
+        // the cloud's mean before the update: only the integrity check reads it
+        let mean_before = self.integrity.is_active().then(|| self.pf.mean()).flatten();
+        let g = ((spread_before - lo) / (hi - lo)).clamp(0.0, 1.0);
+        // the radio's trust tempers its weights (1 unless `integrity`)
+        let trust = self.integrity.trust();
+        let alpha = lc.alpha(meas.len()) * (c + (1.0 - c) * g) * trust;
+        let m = meas.len().max(1) as f64;
+        let missed = self.near_missing(missing, o);
+        let alpha0 = lc.alpha(meas.len());
+        self.scratch.log_l.clear();
+        let mut mean_l = 0.0;
+        // untempered log-likelihood per particle first; each transmitter's
+        // expected RSSI per particle is kept for the residuals below
+        let mut cloud = std::mem::take(&mut self.scratch.cloud);
+        let per_particle = self.per_particle_offset() && !self.pf.state().is_empty();
+        self.walk_offsets_to(t_ns, per_particle);
+        let ps = self.pf.particles();
+        if per_particle {
+            let os = self.pf.state();
+            cloud.evaluate_each(
+                model.as_ref(),
+                &lc,
+                meas,
+                floor,
+                ps,
+                os,
+                &mut self.scratch.log_l,
+            );
+        } else {
+            cloud.evaluate(
+                model.as_ref(),
+                &lc,
+                meas,
+                floor,
+                ps,
+                o,
+                &mut self.scratch.log_l,
+            );
+        }
+        // exp of the per-transmitter mean log-likelihoods in one pass
+        let (xs, ex) = (&mut self.scratch.exp_in, &mut self.scratch.exp_out);
+        xs.clear();
+        xs.extend(self.scratch.log_l.iter().map(|u| *u / m));
+        ex.resize(xs.len(), 0.0);
+        exp_many(xs, ex);
+        for e in ex.iter() {
+            mean_l += e;
+        }
+        if !missed.is_empty() {
+            for (u, p) in self.scratch.log_l.iter_mut().zip(ps) {
+                *u += missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
+            }
+        }
+        // log of the cloud's mean likelihood tempered by alpha0 (comparable
+        // with the surface), by log-sum-exp
+        let lmax = max_many(&self.scratch.log_l, |u| alpha0 * u);
+        let n = self.scratch.log_l.len().max(1) as f64;
+        xs.clear();
+        xs.extend(self.scratch.log_l.iter().map(|u| alpha0 * u - lmax));
+        exp_many(xs, ex);
+        let cloud_ll = lmax + (ex.iter().sum::<f64>() / n).ln();
+        mean_l /= self.pf.particles().len().max(1) as f64;
+        let mut log_l = std::mem::take(&mut self.scratch.log_l);
+        log_l.iter_mut().for_each(|u| *u *= alpha);
+        let support = self.weigh_by_anchors(anchors, floor, trust, &mut log_l);
+        self.pf.weight_log(&log_l);
+        self.scratch.log_l = log_l;
+        self.counts.radio_updates += 1;
+        self.learn_offset(t_ns, meas, &cloud, per_particle);
+        self.scratch.cloud = cloud;
+        self.pf.resample_if_degenerate();
+        // a radio the walk disagrees with re-seeds nothing (`integrity`)
+        let trusted = trust >= self.cfg.integrity.reseed_min_trust;
+        let fit = RadioFit {
+            mean_l,
+            cloud_ll,
+            spread_before,
+        };
+        self.recover(floor, meas, missing, fit, trusted);
+        if trusted {
+            self.anchor_reseed(anchors, floor, support);
+        }
+        if let (Some(a), Some(b)) = (mean_before, self.pf.mean()) {
+            self.integrity
+                .on_radio(&self.cfg.integrity, t_ns, b - a, spread_before);
+        }
+        if trust < 1.0 {
+            self.counts.trust_reduced += 1;
+        }
+        if trust < 0.5 {
+            self.counts.trust_low += 1;
+        }
+        self.update_floor(t_ns, meas, anchors);
+        if self.floor != floor {
+            // pulls on another floor's cloud do not add up with these
+            self.integrity
+                .restart(&self.cfg.integrity, self.recovery.told_start);
+        }
+    }
+
+    /// The missed transmitters that could matter for the cloud: those
+    /// whose expected RSSI at the nearest point of the cloud's bounding box
+    /// reaches within 6 sensitivity scales of their radio's sensitivity.
+    pub(super) fn near_missing(
+        &self,
+        missing: &[(usize, f64)],
+        offset_db: f64,
+    ) -> Vec<(usize, f64)> {
+        let ps = self.pf.particles();
+        if ps.is_empty() || missing.is_empty() {
+            return Vec::new();
+        }
+        let (mut lo, mut hi) = (ps[0], ps[0]);
+        for p in ps {
+            lo = lo.inf(p);
+            hi = hi.sup(p);
+        }
+        let tx = self.model.transmitters();
+        let scale = self.cfg.likelihood.sensitivity_scale_db;
+        missing
+            .iter()
+            .copied()
+            .filter(|&(i, sens)| {
+                let Some(t) = tx.get(i) else { return false };
+                let q = Vec2::new(t.pos.x.clamp(lo.x, hi.x), t.pos.y.clamp(lo.y, hi.y));
+                self.model
+                    .expected(i, self.floor, q)
+                    .is_some_and(|(mu, _)| mu + offset_db - sens > -6.0 * scale)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,171 @@
+//! Recovery: when the cloud has lost the radio, part of it is re-seeded
+//! from the likelihood surface (augmented MCL, gated by the walls, the
+//! survey's reach and the radio's trust).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use super::TcpfEngine;
+use crate::Vec2;
+use crate::fusion::recovery::LikelihoodMonitor;
+use crate::radio::Measurement;
+use crate::site::Site;
+
+/// What says the cloud is lost.
+pub(super) struct RecoveryState {
+    /// The cloud's likelihood, slow against fast.
+    pub(super) monitor: LikelihoodMonitor,
+    /// Radio updates since the last radio-alone recovery check.
+    since_check: u32,
+    /// The cloud was last placed at a told position (`InitialPosition`,
+    /// `set_position`), not by the radio (`recovery_told_open_floor`).
+    pub(super) told_start: bool,
+    /// Moving average (rate 0.1 per step) of the share of particles a step
+    /// kills at walls: a cloud whose steps keep hitting walls is lost.
+    pub(super) kill_ema: f64,
+    /// Floors whose map has more than one room: there the walls can say a
+    /// cloud is lost (the re-seeding gate); on a floor that is one open
+    /// area the radio alone decides.
+    walled: BTreeMap<i32, bool>,
+}
+
+impl RecoveryState {
+    /// Nothing lost yet on `site`'s floors.
+    pub(super) fn of_site(site: &Site) -> Self {
+        let walled = site
+            .spec
+            .floors
+            .iter()
+            .zip(&site.floors)
+            .map(|(f, m)| (f.id, m.rooms().len() > 1))
+            .collect();
+        RecoveryState {
+            monitor: LikelihoodMonitor::default(),
+            since_check: 0,
+            told_start: false,
+            kill_ema: 0.0,
+            walled,
+        }
+    }
+}
+
+/// What one radio update found of the cloud: its mean likelihood per
+/// transmitter (the monitor's input), its tempered log mean likelihood
+/// (what the surface must beat), and its spread before the update, m.
+pub(super) struct RadioFit {
+    pub(super) mean_l: f64,
+    pub(super) cloud_ll: f64,
+    pub(super) spread_before: f64,
+}
+
+impl TcpfEngine {
+    /// After a radio update on `floor` with `meas` / `missing`: re-seeds
+    /// part of the cloud from the likelihood surface when the monitor saw
+    /// a dip and the walls agree, or when the surface beats the cloud by
+    /// far; not far from the survey, and only with a `trusted` radio.
+    pub(super) fn recover(
+        &mut self,
+        floor: i32,
+        meas: &[Measurement],
+        missing: &[(usize, f64)],
+        fit: RadioFit,
+        trusted: bool,
+    ) {
+        let RadioFit {
+            mean_l,
+            cloud_ll,
+            spread_before,
+        } = fit;
+        let reseed = self.recovery.monitor.update(
+            mean_l,
+            self.cfg.recovery_alpha_slow,
+            self.cfg.recovery_alpha_fast,
+            self.cfg.recovery_max_fraction,
+        );
+        // re-seed only when the surface's best cell beats the cloud by
+        // `recovery_margin` (tempered log-likelihood) and the walls say the
+        // cloud is lost (a biased radio model has better-fitting spots away
+        // from the walker: re-seeding there on every dip of the likelihood
+        // loses a good track), or when the surface beats the cloud by far
+        // (checked every `recovery_check_every` updates even without a dip:
+        // a kidnapped cloud's likelihood is low from the start, not falling)
+        self.recovery.since_check += 1;
+        let every = self.cfg.recovery_check_every;
+        let check = every > 0 && self.recovery.since_check >= every;
+        if check {
+            self.recovery.since_check = 0;
+        }
+        // far from every survey walk (with reference scans to tell) the
+        // surface is the radio map's extrapolation: no re-seeding from it
+        let far = self.far_from_survey();
+        if far && (reseed > 0.0 || check) {
+            self.counts.reseed_far += 1;
+        }
+        // on a floor without inner walls nothing but the radio can say the
+        // cloud is lost, unless the cloud came from a told position
+        // (`recovery_told_open_floor`)
+        let open = !self.recovery.walled.get(&floor).copied().unwrap_or(false);
+        let radio_decides =
+            open && !(self.recovery.told_start && self.cfg.recovery_told_open_floor);
+        let walls_agree =
+            self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides;
+        // the gap that re-seeds: past `recovery_radio_alone_margin`, or
+        // with a dip and the walls' consent past `recovery_margin`; when
+        // the bound says the gap cannot pass it, the surface (the largest
+        // share of an update that computes it) would change nothing
+        let needed = if reseed > 0.0 && walls_agree {
+            self.cfg
+                .recovery_radio_alone_margin
+                .min(self.cfg.recovery_margin)
+        } else {
+            self.cfg.recovery_radio_alone_margin
+        };
+        if (reseed > 0.0 || check)
+            && !far
+            && trusted
+            && self
+                .surface_gap_bound(floor, meas, cloud_ll)
+                .is_none_or(|b| b > needed)
+            && let Some(surf) = self.surface(floor, meas, missing, &[], self.profile_prior(true))
+            && let gap = surf.lse - surf.w.iter().sum::<f64>().ln() - cloud_ll
+            && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
+                Some(self.cfg.recovery_max_fraction)
+            } else {
+                (reseed > 0.0 && gap > self.cfg.recovery_margin && walls_agree).then_some(reseed)
+            }
+        {
+            let reseed = fraction;
+            // the re-seeding would move the cloud toward the surface's
+            // mean: beyond what the walk allows, the radio is not
+            // followed there (`integrity`), and the refused pull counts
+            let refused = self.integrity.is_active().then(|| {
+                let wsum: f64 = surf.w.iter().sum();
+                let toward = surf
+                    .cells
+                    .iter()
+                    .zip(&surf.w)
+                    .fold(Vec2::zeros(), |s, (c, w)| {
+                        s + c * (*w / wsum.max(f64::MIN_POSITIVE))
+                    });
+                toward - self.pf.mean().unwrap_or(toward)
+            });
+            if let Some(pull) = refused.filter(|pull| {
+                pull.norm() > self.integrity.allowed_m(&self.cfg.integrity, spread_before)
+            }) {
+                self.integrity.refuse(pull * reseed);
+                self.counts.reseed_untrusted += 1;
+            } else {
+                self.pf.resample();
+                let site = Arc::clone(&self.site);
+                let map = site.floor(floor);
+                let n =
+                    self.pf
+                        .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
+                            map.is_none_or(|m| m.is_walkable(q))
+                        });
+                self.draw_offsets_from_cells(&surf);
+                self.counts.reseeded += n as u64;
+            }
+        }
+    }
+}

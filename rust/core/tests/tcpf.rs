@@ -1,0 +1,391 @@
+//! Engine `tcpf` on simulated walks of the demo site: the two-phone case of
+//! issue 16 (the same walk heard by a phone 9 dB weaker), a start from a
+//! scan far from the walks, and the published track against the walls.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use fpbp_core::Vec2;
+use fpbp_core::engine::replay::{ReplayOutput, replay};
+use fpbp_core::engine::{Pose, track_segment_crosses_wall};
+use fpbp_core::engines::{EngineConfig, build_engine};
+use fpbp_core::events::LogEvent;
+use fpbp_core::site::Site;
+use fpbp_sim::{SimRequest, simulate};
+
+fn demo_site() -> Arc<Site> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
+    fpbp_core::site::files::load_site(&path).unwrap()
+}
+
+fn run(site: &Arc<Site>, events: &[LogEvent], seed: u64) -> ReplayOutput {
+    run_with(site, events, seed, &EngineConfig::default())
+}
+
+fn run_with(site: &Arc<Site>, events: &[LogEvent], seed: u64, cfg: &EngineConfig) -> ReplayOutput {
+    let cfg = EngineConfig {
+        seed,
+        ..cfg.clone()
+    };
+    let mut e = build_engine("tcpf", site.clone(), &cfg, None).unwrap();
+    replay(e.as_mut(), events.iter().cloned())
+}
+
+/// The pose of `track` at or just before `t_ns`.
+fn at(track: &[Pose], t_ns: i64) -> Option<Pose> {
+    let k = track.partition_point(|p| p.t_ns <= t_ns);
+    k.checked_sub(1).map(|i| track[i])
+}
+
+/// The same walk heard by a second phone reading every beacon 9 dB weaker
+/// (readings pushed below `min_rssi_dbm` = -100 dBm are lost, as a weaker
+/// phone loses them): issue 16's "same track within 1 m after the offset
+/// converges", as the median separation of the two tracks after 60 s over
+/// six simulated walks. Met with each particle carrying its own offset,
+/// the default on a site without a radio map such as this one
+/// (`offset.per_particle_without_map`; with a radio map it cost ILC F1
+/// and IPIN odd 0.1-0.2 m and is off there; docs/tcpf.md "Two phones").
+#[test]
+fn a_phone_nine_db_weaker_is_seen_as_one() {
+    let site = demo_site();
+    let cfg = EngineConfig::default();
+    let mut sep = Vec::new();
+    let mut offsets = Vec::new();
+    for seed in 3u64..=8 {
+        let log = simulate(&site, &SimRequest::new(180.0, seed)).unwrap();
+        let weak: Vec<LogEvent> = log
+            .events
+            .iter()
+            .cloned()
+            .map(|e| match e {
+                LogEvent::Ble(mut b) => {
+                    b.rssi_dbm -= 9.0;
+                    LogEvent::Ble(b)
+                }
+                other => other,
+            })
+            .collect();
+        let a = run_with(&site, &log.events, 1, &cfg);
+        let b = run_with(&site, &weak, 1, &cfg);
+        let (oa, ob) = (
+            a.stats.rssi_offset_db.unwrap(),
+            b.stats.rssi_offset_db.unwrap(),
+        );
+        offsets.push(oa - ob);
+        let t0 = log.events[0].t_ns();
+        for p in a.track.iter().filter(|p| p.t_ns - t0 > 60_000_000_000) {
+            if let Some(q) = at(&b.track, p.t_ns) {
+                sep.push((p.x_m - q.x_m).hypot(p.y_m - q.y_m));
+            }
+        }
+    }
+    sep.sort_by(f64::total_cmp);
+    let (median, p90) = (sep[sep.len() / 2], sep[sep.len() * 9 / 10]);
+    eprintln!(
+        "two phones: offsets apart {offsets:?} dB, track separation after 60 s median {median:.2} m, p90 {p90:.2} m"
+    );
+    // With each particle carrying its own offset (docs/tcpf.md "Two
+    // phones") the tracks are a median 0.61 m apart after 60 s over walks
+    // 3-8 (one offset for the whole cloud, the default before: 5.27 m); walks 3
+    // and 4 alone 1.21 m (9.72 m with the default). Not everywhere: the p90 is 7.5 m, on walk 3
+    // the weaker phone's start lands wrong and stays 11 m off. The
+    // offsets end 5-6 dB apart, not 9: the weaker phone loses the readings
+    // pushed below -100 dBm, the far beacons that the simulator's walls
+    // attenuate more than the path-loss model expects (their residuals
+    // pull the reference phone's offset to -7 dB).
+    assert!(
+        median < 1.0,
+        "separation after 60 s: median {median:.2} m, p90 {p90:.2} m"
+    );
+    for d in &offsets {
+        assert!(
+            (4.0..12.0).contains(d),
+            "offset difference {d:.2} dB, want most of the 9 dB"
+        );
+    }
+}
+
+/// The floor of the two-phone measure: the very same readings replayed
+/// with engine seeds 1 and 2 (no offset at all) give tracks a median
+/// 0.18 m apart after 60 s over simulated walks 4, 5, 7 and 8 (p90
+/// 0.46 m): the filter's own divergence leaves room for the issue's 1 m;
+/// the two-phone case misses it through the offset and the start
+/// (`a_phone_nine_db_weaker_is_seen_as_one`).
+#[test]
+fn the_same_readings_with_another_engine_seed_stay_within_a_metre() {
+    let site = demo_site();
+    let mut sep = Vec::new();
+    for sim in [4u64, 5, 7, 8] {
+        let log = simulate(&site, &SimRequest::new(180.0, sim)).unwrap();
+        let (a, b) = (run(&site, &log.events, 1), run(&site, &log.events, 2));
+        let t0 = log.events[0].t_ns();
+        for p in a.track.iter().filter(|p| p.t_ns - t0 > 60_000_000_000) {
+            if let Some(q) = at(&b.track, p.t_ns) {
+                sep.push((p.x_m - q.x_m).hypot(p.y_m - q.y_m));
+            }
+        }
+    }
+    assert!(sep.len() > 1000, "{} poses compared", sep.len());
+    sep.sort_by(f64::total_cmp);
+    let (median, p90) = (sep[sep.len() / 2], sep[sep.len() * 9 / 10]);
+    eprintln!("engine seeds 1 vs 2: separation after 60 s median {median:.2} m, p90 {p90:.2} m");
+    assert!(
+        median < 1.0 && p90 < 1.0,
+        "separation median {median:.2} m, p90 {p90:.2} m"
+    );
+}
+
+/// A first scan heard far from where the transmitters' strongest readings
+/// are still gives a pose, with a broad accuracy radius, not a sharp
+/// wrong one.
+#[test]
+fn a_weak_first_scan_gives_a_broad_cloud() {
+    let site = demo_site();
+    let log = simulate(&site, &SimRequest::new(20.0, 5)).unwrap();
+    // only the weakest readings survive the first 3 s
+    let t0 = log.events[0].t_ns();
+    let events: Vec<LogEvent> = log
+        .events
+        .iter()
+        .filter(|e| match e {
+            LogEvent::Ble(b) => e.t_ns() - t0 > 3_000_000_000 || b.rssi_dbm < -85.0,
+            _ => true,
+        })
+        .cloned()
+        .collect();
+    let out = run(&site, &events, 1);
+    let first = out.track.first().expect("a pose");
+    assert!(first.t_ns - t0 < 3_000_000_000, "first pose after 3 s");
+    let truth = out
+        .scored
+        .first()
+        .map(|s| Vec2::new(s.truth.x_m, s.truth.y_m));
+    if let Some(t) = truth {
+        let err = (first.x_m - t.x).hypot(first.y_m - t.y);
+        assert!(
+            first.accuracy_m >= 0.5 * err,
+            "accuracy {:.1} m for an error of {err:.1} m",
+            first.accuracy_m
+        );
+    }
+    assert!(
+        first.accuracy_m >= 5.0,
+        "accuracy {:.1} m",
+        first.accuracy_m
+    );
+}
+
+/// Issue 16: "the published track never crosses a wall on the shipped
+/// logs". Every shipped log, engine seeds 1-3, counted with the check
+/// `fpbp eval` counts wall crossings with (`track_segment_crosses_wall`).
+/// Before the published point walked through the doors, tcpf's tracks
+/// crossed 2.4 times per 100 m (33 segments over the 8 logs, seed 1).
+#[test]
+fn the_published_track_never_crosses_a_wall_on_the_shipped_logs() {
+    let site = demo_site();
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../host-tests/logs");
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.to_string_lossy().ends_with(".log.gz"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 8, "shipped logs: {files:?}");
+    let opts = fpbp_logs::ReadOptions {
+        default_floor: Some(site.default_floor()),
+        ..Default::default()
+    };
+    let (mut segments, mut crossings, mut length_m) = (0usize, Vec::new(), 0.0);
+    for f in &files {
+        let (events, _) = fpbp_logs::read_all(f, &opts).unwrap();
+        for seed in 1..=3u64 {
+            let out = run(&site, &events, seed);
+            assert!(
+                out.track.len() > 100,
+                "{}: {} poses",
+                f.display(),
+                out.track.len()
+            );
+            for w in out.track.windows(2) {
+                segments += 1;
+                length_m += (w[1].x_m - w[0].x_m).hypot(w[1].y_m - w[0].y_m);
+                if track_segment_crosses_wall(&site, &w[0], &w[1]) {
+                    crossings.push((f.file_name().unwrap().to_owned(), seed, w[0], w[1]));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "{} logs x 3 seeds: {segments} segments, {length_m:.0} m, {} wall crossings",
+        files.len(),
+        crossings.len()
+    );
+    assert!(length_m > 1000.0, "tracks of {length_m:.0} m");
+    assert!(crossings.is_empty(), "crossings: {crossings:?}");
+}
+
+/// The demo site's path-loss model, wrong by 10 dB east of `WING_X_M`:
+/// there every transmitter's expected RSSI is 10 dB off, stronger for
+/// even-numbered transmitters and weaker for odd ones (a phone offset
+/// cannot explain it away), as a radio map is where its survey went
+/// wrong or a transmitter moved.
+struct WrongWing(fpbp_core::radio::PathLossModel);
+
+const WING_X_M: f64 = 34.0;
+
+impl fpbp_core::radio::RadioModel for WrongWing {
+    fn transmitters(&self) -> &[fpbp_core::radio::Transmitter] {
+        self.0.transmitters()
+    }
+
+    fn lookup(&self, kind: fpbp_core::radio::TxKind, id: &str) -> Option<usize> {
+        self.0.lookup(kind, id)
+    }
+
+    fn expected(&self, tx: usize, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let (mu, sd) = self.0.expected(tx, floor, p)?;
+        let off = if p.x <= WING_X_M {
+            0.0
+        } else if tx % 2 == 0 {
+            10.0
+        } else {
+            -10.0
+        };
+        Some((mu + off, sd))
+    }
+}
+
+/// `tcpf` recording its radio trust after every task run.
+struct TrustRecorder {
+    e: fpbp_core::engines::tcpf::TcpfEngine,
+    trust: std::sync::Arc<std::sync::Mutex<f64>>,
+}
+
+impl fpbp_core::engine::Engine for TrustRecorder {
+    fn name(&self) -> &'static str {
+        "tcpf"
+    }
+    fn on_sensor(&mut self, ev: &fpbp_core::events::SensorEvent) {
+        self.e.on_sensor(ev)
+    }
+    fn on_ble(&mut self, obs: &fpbp_core::events::BleObservation) {
+        self.e.on_ble(obs)
+    }
+    fn on_wifi(&mut self, scan: &fpbp_core::events::WifiScan) {
+        self.e.on_wifi(scan)
+    }
+    fn run_task(&mut self, task: fpbp_core::engine::Task, t_ns: i64) {
+        self.e.run_task(task, t_ns);
+        *self.trust.lock().unwrap() = self.e.radio_trust();
+    }
+    fn task_period_ns(&self, task: fpbp_core::engine::Task) -> Option<i64> {
+        self.e.task_period_ns(task)
+    }
+    fn pose(&self) -> Option<Pose> {
+        self.e.pose()
+    }
+    fn stats(&self) -> fpbp_core::engine::EngineStats {
+        self.e.stats()
+    }
+}
+
+/// Issue 39's integrity case: a radio model 10 dB wrong over the east
+/// wing of the demo site, walks started at their first truth point. With
+/// `tcpf.integrity` on, the track's error at the truth points in the wing
+/// is at most 0.8 x that without it, and the radio's trust is lower in
+/// the wing than outside it. Guards the integrity check: an option that
+/// changes nothing, or a trust that never drops, fails.
+///
+/// NOT MET: the issue asks for the wing's error within 1.1 x `pdr`'s;
+/// measured 12.2 m against `pdr` 5.7 m (19.4 m without the check), see
+/// docs/lab/tcpf-radio-trust.md. The figures are printed with
+/// `--nocapture`.
+#[test]
+fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
+    use fpbp_core::engine::InitialPosition;
+    use fpbp_core::engine::replay::Replayer;
+    use fpbp_core::engines::tcpf::TcpfEngine;
+    let site = demo_site();
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.integrity.enabled = true;
+    let (mut tcpf_wing, mut off_wing, mut pdr_wing) = (Vec::new(), Vec::new(), Vec::new());
+    let (mut trust_in, mut trust_out) = (Vec::new(), Vec::new());
+    for seed in 1u64..=8 {
+        let log = simulate(&site, &SimRequest::new(180.0, seed)).unwrap();
+        let first = log.events.iter().find_map(|e| match e {
+            LogEvent::Truth(t) => Some(*t),
+            _ => None,
+        });
+        let t0 = first.expect("a truth point");
+        let init = InitialPosition {
+            x_m: t0.x_m,
+            y_m: t0.y_m,
+            floor: t0.floor.unwrap_or(0),
+            heading_rad: None,
+        };
+        let model = || {
+            Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
+                &site,
+                TcpfEngine::path_loss_params(&cfg),
+            )))
+        };
+        let cfg_s = EngineConfig {
+            seed,
+            ..cfg.clone()
+        };
+        let trust = Arc::new(std::sync::Mutex::new(1.0));
+        let mut rec = TrustRecorder {
+            e: TcpfEngine::with_model(site.clone(), &cfg_s, Some(init), model()).unwrap(),
+            trust: trust.clone(),
+        };
+        // the trust at each truth point (after the last task run before
+        // it), by where the walker is
+        let mut r = Replayer::new(&mut rec);
+        for ev in &log.events {
+            r.push(ev);
+            if let LogEvent::Truth(tp) = ev {
+                if tp.x_m > WING_X_M {
+                    trust_in.push(*trust.lock().unwrap());
+                } else {
+                    trust_out.push(*trust.lock().unwrap());
+                }
+            }
+        }
+        let out = r.finish();
+        let off_cfg = EngineConfig {
+            seed,
+            ..EngineConfig::default()
+        };
+        let mut plain =
+            TcpfEngine::with_model(site.clone(), &off_cfg, Some(init), model()).unwrap();
+        let out_off = fpbp_core::engine::replay::replay(&mut plain, log.events.iter().cloned());
+        let mut pdr = build_engine("pdr", site.clone(), &off_cfg, Some(init)).unwrap();
+        let out_pdr = fpbp_core::engine::replay::replay(pdr.as_mut(), log.events.iter().cloned());
+        for ((a, b), c) in out.scored.iter().zip(&out_off.scored).zip(&out_pdr.scored) {
+            let (Some(ea), Some(eb), Some(ec)) = (a.error_m(), b.error_m(), c.error_m()) else {
+                continue;
+            };
+            if a.truth.x_m > WING_X_M {
+                tcpf_wing.push(ea);
+                off_wing.push(eb);
+                pdr_wing.push(ec);
+            }
+        }
+    }
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    assert!(tcpf_wing.len() > 50, "{} wing points", tcpf_wing.len());
+    let (t, o, p) = (mean(&tcpf_wing), mean(&off_wing), mean(&pdr_wing));
+    eprintln!(
+        "wing ({} points): tcpf integrity {t:.2} m, without {o:.2} m, pdr {p:.2} m",
+        tcpf_wing.len()
+    );
+    assert!(
+        t <= 0.8 * o,
+        "with the check {t:.2} m, without {o:.2} m in the wrong wing"
+    );
+    let (ti, to) = (mean(&trust_in), mean(&trust_out));
+    eprintln!("mean radio trust in the wing {ti:.2}, outside {to:.2}");
+    // measured 0.90 in the wing, 0.94 outside: the trust drops there, but
+    // little on average (docs/lab/tcpf-radio-trust.md)
+    assert!(ti < to - 0.02, "trust in the wing {ti:.2}, outside {to:.2}");
+}

@@ -29,7 +29,7 @@ use super::magnetic_map::MagneticMapBuilder;
 use super::model::{PathLossModel, PathLossParams, RadioModel, Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap, fallback_at};
 pub use super::radio_map_config::RadioMapConfig;
-use super::radio_map_spread::{SpreadCurve, SpreadFit};
+use super::radio_map_spread::{SpreadCurve, SpreadFit, WalkFootprint};
 use super::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use super::survey::{RadioSample, SurveyCounts, survey_samples};
 use crate::Vec2;
@@ -283,6 +283,9 @@ impl<'a> RadioMapBuilder<'a> {
         }
         let mut fallback = cfg.fallback;
         let mut curves = [None, None];
+        let footprint = cfg
+            .spread_calibration
+            .then(|| WalkFootprint::of(&acc, cfg.bin_m, cfg.max_distance_m));
         if cfg.spread_calibration {
             let fits = super::radio_map_spread::calibrate(&ids, &acc, &cfg, &site_model);
             for (k, (kind, fit)) in [TxKind::Ble, TxKind::Wifi]
@@ -352,7 +355,8 @@ impl<'a> RadioMapBuilder<'a> {
                 let curve = match kind {
                     TxKind::Ble => curves[0],
                     TxKind::Wifi => curves[1],
-                };
+                }
+                .zip(footprint.as_ref());
                 let mut grids = Vec::new();
                 for (floor, bins) in &a.bins {
                     if let Some(g) = build_grid(*floor, bins, &cfg, &fb, curve)? {
@@ -600,7 +604,7 @@ impl BinStat {
 
 /// How [`smooth_grid`] turns bins into cells (the units are the values':
 /// dB for the radio map, uT for the magnetic one).
-pub(super) struct SmoothParams {
+pub(super) struct SmoothParams<'a> {
     pub cell_m: f64,
     pub bandwidth_m: f64,
     pub max_distance_m: f64,
@@ -609,9 +613,9 @@ pub(super) struct SmoothParams {
     pub max_sd: f64,
     pub sd_growth_per_m: f64,
     pub max_cells_per_grid: usize,
-    /// The calibrated spread by distance from the nearest bin, replacing
-    /// the smoothed one (`RadioMapConfig::spread_calibration`).
-    pub sd_curve: Option<SpreadCurve>,
+    /// The calibrated spread at a cell centre, replacing the smoothed one
+    /// (`RadioMapConfig::spread_calibration`).
+    pub sd_at: Option<&'a dyn Fn(Vec2) -> f64>,
 }
 
 /// The grid of one transmitter on `floor` from its bins; `None` when no
@@ -621,7 +625,7 @@ fn build_grid(
     bins: &BTreeMap<(i64, i64), Bin>,
     cfg: &RadioMapConfig,
     fb: &Fallback<'_>,
-    sd_curve: Option<SpreadCurve>,
+    sd_curve: Option<(SpreadCurve, &WalkFootprint)>,
 ) -> Result<Option<Grid>> {
     let stats: Vec<BinStat> = bins
         .values()
@@ -637,7 +641,15 @@ fn build_grid(
         max_sd: cfg.max_sd_db,
         sd_growth_per_m: cfg.sd_growth_db_per_m,
         max_cells_per_grid: cfg.max_cells_per_grid,
-        sd_curve,
+        sd_at: None,
+    };
+    let sd_at = |c: Vec2| match sd_curve {
+        Some((curve, fp)) => curve.at(fp.distance(floor, c, None).min(cfg.max_distance_m)),
+        None => 0.0,
+    };
+    let p = SmoothParams {
+        sd_at: sd_curve.is_some().then_some(&sd_at as &dyn Fn(Vec2) -> f64),
+        ..p
     };
     smooth_grid(floor, &stats, &p, &|c| fb.at(floor, c))
 }
@@ -721,8 +733,8 @@ pub(super) fn smooth_grid(
             };
             let lambda = if sw + w0 > 0.0 { sw / (sw + w0) } else { 1.0 };
             let mu = lambda * m + (1.0 - lambda) * mu_fb;
-            let s = match p.sd_curve {
-                Some(c) => c.at(dmin),
+            let s = match p.sd_at {
+                Some(f) => f(c),
                 None => {
                     let g = p.sd_growth_per_m * dmin;
                     let var = lambda * v + (1.0 - lambda) * sd_fb * sd_fb + g * g;

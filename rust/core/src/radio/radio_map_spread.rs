@@ -99,6 +99,7 @@ impl Residuals {
         k: &Kernel,
         fallback: &dyn Fn(Vec2) -> (f64, f64),
         pathloss: bool,
+        survey_distance: &dyn Fn(Vec2, usize) -> f64,
     ) {
         let h = k.bandwidth_m;
         let radius = (3.0 * h).max(k.max_distance_m).max(1e-3);
@@ -160,9 +161,11 @@ impl Residuals {
                         self.far.1 += ss;
                     }
                 } else {
-                    let e = self.near.entry(dmin.floor() as i64).or_default();
+                    // binned by the distance from where the other walks went
+                    let d = survey_distance(b.pos, w).min(dmin);
+                    let e = self.near.entry(d.floor() as i64).or_default();
                     e.0 += nw;
-                    e.1 += nw * dmin * dmin;
+                    e.1 += nw * d * d;
                     e.2 += ss;
                 }
             }
@@ -199,6 +202,7 @@ pub(super) fn calibrate(
     cfg: &RadioMapConfig,
     site_model: &PathLossModel,
 ) -> [SpreadFit; 2] {
+    let footprint = WalkFootprint::of(acc, cfg.bin_m, cfg.max_distance_m);
     let mut res = [Residuals::default(), Residuals::default()];
     let k = Kernel {
         bandwidth_m: cfg.bandwidth_m,
@@ -232,10 +236,75 @@ pub(super) fn calibrate(
                     walks: b.walks.clone(),
                 })
                 .collect();
-            r.add(&wb, &k, &|p| fb.at(*floor, p), fb.has_pathloss);
+            r.add(&wb, &k, &|p| fb.at(*floor, p), fb.has_pathloss, &|p, w| {
+                footprint.distance(*floor, p, Some(w))
+            });
         }
     }
     [res[0].fit(), res[1].fit()]
+}
+
+/// Where the survey walked: every transmitter's bins per floor (their
+/// `bin_m` squares), with the walks that read there.
+pub(super) struct WalkFootprint {
+    bin_m: f64,
+    rings: i64,
+    keys: BTreeMap<(i32, i64, i64), Vec<usize>>,
+}
+
+impl WalkFootprint {
+    /// The footprint of every transmitter's bins; distances are searched
+    /// up to `max_distance_m` (and a bin) away.
+    pub fn of(acc: &[TxAcc], bin_m: f64, max_distance_m: f64) -> Self {
+        let mut keys: BTreeMap<(i32, i64, i64), Vec<usize>> = BTreeMap::new();
+        for a in acc {
+            for (floor, bins) in &a.bins {
+                for ((i, j), b) in bins {
+                    let v = keys.entry((*floor, *i, *j)).or_default();
+                    for w in b.walks.keys() {
+                        if let Err(k) = v.binary_search(w) {
+                            v.insert(k, *w);
+                        }
+                    }
+                }
+            }
+        }
+        WalkFootprint {
+            bin_m,
+            rings: (max_distance_m / bin_m).ceil() as i64 + 1,
+            keys,
+        }
+    }
+
+    /// Distance from `p` on `floor` to the centre of the nearest bin a walk
+    /// (other than `except`) read in, m; infinite beyond the search.
+    pub fn distance(&self, floor: i32, p: Vec2, except: Option<usize>) -> f64 {
+        let b = self.bin_m;
+        let (ci, cj) = ((p.x / b).floor() as i64, (p.y / b).floor() as i64);
+        let mut best = f64::INFINITY;
+        for r in 0..=self.rings {
+            if ((r - 1) as f64) * b > best {
+                break;
+            }
+            for di in -r..=r {
+                for dj in -r..=r {
+                    if di.abs() != r && dj.abs() != r {
+                        continue;
+                    }
+                    let (i, j) = (ci + di, cj + dj);
+                    let Some(ws) = self.keys.get(&(floor, i, j)) else {
+                        continue;
+                    };
+                    if except.is_some_and(|w| ws.len() == 1 && ws[0] == w) {
+                        continue;
+                    }
+                    let q = Vec2::new((i as f64 + 0.5) * b, (j as f64 + 0.5) * b);
+                    best = best.min((q - p).norm());
+                }
+            }
+        }
+        best
+    }
 }
 
 /// Weighted least squares of v = a + b d^2 over the distance bins (weight:

@@ -73,6 +73,13 @@ pub struct Args {
     /// Radio map settings JSON (`RadioMapConfig`, docs/parameters.md).
     #[arg(long, requires = "radio_map")]
     pub radio_map_config: Option<PathBuf>,
+    /// Held-out logs with truth to check the radio map's spread on
+    /// (standardised residuals by distance from the survey).
+    #[arg(long, num_args = 1.., requires = "radio_map")]
+    pub radio_map_check_logs: Vec<PathBuf>,
+    /// Split applied to --radio-map-check-logs.
+    #[arg(long, value_enum, default_value = "all")]
+    pub radio_map_check_split: Split,
     /// Write every surveyed transmitter's radio-map report as JSON here.
     #[arg(long, requires = "radio_map")]
     pub radio_map_report: Option<PathBuf>,
@@ -431,12 +438,19 @@ pub fn run(args: Args) -> Result<()> {
     }
     if let Some(rm) = &args.radio_map {
         let site = fpbp_core::site::files::load_site(&args.out)?;
+        let mut check_logs = Vec::new();
+        for l in select_logs(&args.radio_map_check_logs, args.radio_map_check_split) {
+            let mut events = load_events(&l, &opts)?;
+            events.retain(radio_map_reads);
+            check_logs.push(events);
+        }
         fpbp_eval::radio_map::build(
             &site,
             radio_map_logs,
             args.radio_map_config.as_deref(),
             rm,
             args.radio_map_report.as_deref(),
+            &check_logs,
         )?;
     }
     if !args.check_logs.is_empty() {

@@ -7,6 +7,9 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use fpbp_core::events::LogEvent;
+use fpbp_core::radio::map_calibration::{
+    DEFAULT_EDGES_M, SurveyFootprint, check_calibration, format_table,
+};
 use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::radio::reference_scans::ReferenceScanConfig;
@@ -16,13 +19,16 @@ use fpbp_core::site::Site;
 
 /// Builds the map of `logs` (each log's path and events) on `site` (its
 /// beacons and APs are the fallback), writes it to `out` (and the
-/// per-transmitter report to `report`), prints a summary.
+/// per-transmitter report to `report`), prints a summary; with
+/// `check_logs` (held-out logs with truth), prints the map's spread
+/// calibration on them (`fpbp_core::radio::map_calibration`).
 pub fn build(
     site: &Site,
     logs: Vec<(PathBuf, Vec<LogEvent>)>,
     config: Option<&Path>,
     out: &Path,
     report: Option<&Path>,
+    check_logs: &[Vec<LogEvent>],
 ) -> Result<()> {
     let cfg = match config {
         None => RadioMapConfig::default(),
@@ -35,8 +41,15 @@ pub fn build(
     };
     let mut b =
         RadioMapBuilder::new(site, &cfg)?.with_reference_scans(&ReferenceScanConfig::default())?;
+    let opts = cfg.survey_options((site.spec.floors.len() == 1).then(|| site.default_floor()));
+    let mut footprint = SurveyFootprint::default();
     let bar = crate::progress::bar(logs.len() as u64);
     for (l, events) in logs {
+        if !check_logs.is_empty() {
+            fpbp_core::radio::survey::survey_samples(&events, &opts, |s| {
+                footprint.add(s.floor, s.pos)
+            });
+        }
         bar.set_message(format!("radio map: {}", l.display()));
         bar.inc(1);
         b.add_log(&events);
@@ -97,6 +110,36 @@ pub fn build(
             sd(TxKind::Ble),
             sd(TxKind::Wifi)
         );
+    }
+    for (kind, fit) in [("BLE", &s.ble_spread), ("WiFi", &s.wifi_spread)] {
+        if let Some(f) = fit {
+            let curve = f.curve.map_or("none (too few residuals)".to_string(), |c| {
+                format!(
+                    "sd(d) = sqrt({:.2}^2 + ({:.3} d)^2) dB",
+                    c.s0_db, c.k_db_per_m
+                )
+            });
+            let fb = f
+                .fallback_sd_db
+                .map_or("kept".to_string(), |v| format!("{v:.2} dB"));
+            println!(
+                "spread calibration {kind}: {curve} from {:.0} leave-one-walk-out readings; \
+                 fallback spread {fb} ({:.0} readings beyond max_distance_m)",
+                f.readings, f.far_readings
+            );
+        }
+    }
+    if !check_logs.is_empty() {
+        let held: Vec<&[LogEvent]> = check_logs.iter().map(Vec::as_slice).collect();
+        let rep = check_calibration(&map, &footprint, &held, &opts, &DEFAULT_EDGES_M);
+        println!(
+            "spread check on {} held-out logs ({} readings placed, {} of transmitters the map lacks):",
+            held.len(),
+            rep.placed,
+            rep.unknown_tx
+        );
+        print!("{}", format_table("raw", &rep.raw));
+        print!("{}", format_table("offset-removed", &rep.offset_removed));
     }
     std::fs::write(out, map.to_json()?).with_context(|| format!("writing {}", out.display()))?;
     println!(

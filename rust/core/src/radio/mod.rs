@@ -17,6 +17,8 @@
 //!   or prior fallback far from the walks), built by [`radio_map_build`]
 //!   from [`survey`] samples; its JSON file `fpbp-radio-map` in
 //!   [`radio_map_file`].
+//! - [`map_calibration`]: is a radio map's spread honest? Standardised
+//!   residuals of held-out walks by distance from the survey.
 //! - [`survey_track`]: the survey walker's position between truth points
 //!   shaped by its own PDR (`fpbp calibrate --survey-track pdr`).
 //! - [`reference_scans`]: the survey walks' scan vectors (fingerprints)
@@ -26,11 +28,14 @@
 pub mod fast_ln;
 pub mod likelihood;
 pub mod magnetic_map;
+pub mod map_calibration;
 pub mod model;
 pub mod offset;
 pub mod radio_map;
 pub mod radio_map_build;
+pub mod radio_map_config;
 pub mod radio_map_file;
+pub mod radio_map_spread;
 pub mod reference_scans;
 pub mod survey;
 pub mod survey_track;

@@ -23,227 +23,40 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
-use super::magnetic_map::{MagneticMapBuilder, MagneticMapConfig};
+use super::magnetic_map::MagneticMapBuilder;
 use super::model::{PathLossModel, PathLossParams, RadioModel, Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap, fallback_at};
+pub use super::radio_map_config::RadioMapConfig;
+use super::radio_map_spread::{SpreadCurve, SpreadFit, WalkFootprint};
 use super::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
-use super::survey::{RadioSample, SurveyCounts, SurveyOptions, survey_samples};
+use super::survey::{RadioSample, SurveyCounts, survey_samples};
 use crate::Vec2;
 use crate::ble::pathloss::PathLoss;
-use crate::bounds::{
-    MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_GRID_CELLS, MAX_RADIO_MAP_TRANSMITTERS, check_count,
-};
+use crate::bounds::{MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_TRANSMITTERS};
 use crate::events::LogEvent;
 use crate::site::Site;
 use crate::{Error, Result};
 
-/// Settings of [`RadioMapBuilder`] (`fpbp calibrate --radio-map`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct RadioMapConfig {
-    /// Grid cell side, metres. Default 2.
-    pub cell_m: f64,
-    /// Readings are binned in squares of this side before smoothing, m. Default 1.
-    pub bin_m: f64,
-    /// Gaussian kernel bandwidth (sd), metres. Default 2.5.
-    pub bandwidth_m: f64,
-    /// Cells farther than this from every bin hold no value, metres. Default 8.
-    pub max_distance_m: f64,
-    /// Pseudo-samples of the fallback mean/spread in every cell. Default 2.
-    pub prior_weight: f64,
-    /// Spread bounds of a cell, dB. Defaults 4.5 / 12.
-    pub min_sd_db: f64,
-    pub max_sd_db: f64,
-    /// Spread added per metre of distance to the nearest bin (in
-    /// quadrature), dB/m. Default 0.8.
-    pub sd_growth_db_per_m: f64,
-    /// A transmitter needs this many readings and walks. Defaults 20 / 2.
-    pub min_samples: usize,
-    pub min_walks: usize,
-    /// Moving transmitter: RMS disagreement of walks in shared bins (each
-    /// walk's median offset removed) above this, dB. Default 6.
-    pub moving_max_db: f64,
-    /// The moving test needs this many shared bins (fewer: not tested). Default 3.
-    pub moving_min_bins: usize,
-    /// Remove each survey walk's own RSSI offset (per radio kind, learned
-    /// where walks share bins: [`super::walk_offsets`]) before smoothing.
-    /// Default true (the folds of docs/lab/tcpf-history.md "Stop 33").
-    pub walk_offsets: bool,
-    /// A walk needs this many bins shared with other walks for an offset
-    /// (fewer: none). Default 10.
-    pub walk_offset_min_bins: usize,
-    /// With `walk_offsets`, remove them from the survey's reference scans
-    /// too ([`RadioMapBuilder::with_reference_scans`]). Default true.
-    pub walk_offsets_in_scans: bool,
-    /// Most cells of one grid (the cell is coarsened by 1.25x until it
-    /// fits). Default 40000.
-    pub max_cells_per_grid: usize,
-    /// WiFi results older than this vs their scan are dropped, s. Default 4
-    /// (tcpf's `wifi_max_age_s`).
-    pub wifi_max_age_s: f64,
-    /// Readings weaker than this are dropped, dBm. Default -100.
-    pub min_rssi_dbm: f64,
-    /// No position across truth points further apart, s. Default 20.
-    pub max_truth_gap_s: f64,
-    /// Phone height above the floor (path-loss fallback), m. Default 1.2.
-    pub phone_height_m: f64,
-    /// Only transmitters the site has (a path-loss model from `fpbp
-    /// calibrate`, which rejects moving and non-log-distance ones) get
-    /// grids; the others are left out. Default true: on ILC F1 (even
-    /// half) every surveyed transmitter gave 16.7 m own start against 14.5
-    /// m with the site's only (docs/parameters.md).
-    pub site_transmitters_only: bool,
-    pub fallback: FallbackParams,
-    /// The magnetic field's map from the same walks
-    /// ([`super::magnetic_map`]).
-    pub magnetic: MagneticMapConfig,
-}
-
-impl Default for RadioMapConfig {
-    fn default() -> Self {
-        RadioMapConfig {
-            cell_m: 2.0,
-            bin_m: 1.0,
-            bandwidth_m: 2.5,
-            max_distance_m: 8.0,
-            prior_weight: 2.0,
-            min_sd_db: 4.5,
-            max_sd_db: 12.0,
-            sd_growth_db_per_m: 0.8,
-            min_samples: 20,
-            min_walks: 2,
-            moving_max_db: 6.0,
-            moving_min_bins: 3,
-            walk_offsets: true,
-            walk_offset_min_bins: 10,
-            walk_offsets_in_scans: true,
-            max_cells_per_grid: 40_000,
-            wifi_max_age_s: 4.0,
-            min_rssi_dbm: -100.0,
-            max_truth_gap_s: 20.0,
-            phone_height_m: 1.2,
-            site_transmitters_only: true,
-            fallback: FallbackParams::default(),
-            magnetic: MagneticMapConfig::default(),
-        }
-    }
-}
-
-impl RadioMapConfig {
-    /// What a survey log's readings and magnetometer samples are placed
-    /// with ([`survey_samples`], [`super::survey::magnetic_samples`]);
-    /// `default_floor` for truth points without one.
-    pub fn survey_options(&self, default_floor: Option<i32>) -> SurveyOptions {
-        SurveyOptions {
-            default_floor,
-            max_truth_gap_ns: (self.max_truth_gap_s * 1e9) as i64,
-            wifi_max_age_ns: (self.wifi_max_age_s * 1e9) as i64,
-            min_rssi_dbm: self.min_rssi_dbm,
-        }
-    }
-
-    /// Checks every field's range; errors name `radio_map.<field>`.
-    pub fn validate(&self) -> Result<()> {
-        use crate::bounds::{MIN_GRID_STEP_M, check_range};
-        let p = "radio_map";
-        self.magnetic.validate(&format!("{p}.magnetic"))?;
-        check_range(&format!("{p}.cell_m"), self.cell_m, 0.25, 100.0)?;
-        check_range(
-            &format!("{p}.bin_m"),
-            self.bin_m,
-            MIN_GRID_STEP_M.max(0.1),
-            100.0,
-        )?;
-        check_range(&format!("{p}.bandwidth_m"), self.bandwidth_m, 0.1, 50.0)?;
-        check_range(
-            &format!("{p}.max_distance_m"),
-            self.max_distance_m,
-            0.0,
-            100.0,
-        )?;
-        check_range(&format!("{p}.prior_weight"), self.prior_weight, 0.0, 1e6)?;
-        check_range(&format!("{p}.min_sd_db"), self.min_sd_db, 0.1, 50.0)?;
-        check_range(
-            &format!("{p}.max_sd_db"),
-            self.max_sd_db,
-            self.min_sd_db,
-            50.0,
-        )?;
-        check_range(
-            &format!("{p}.sd_growth_db_per_m"),
-            self.sd_growth_db_per_m,
-            0.0,
-            50.0,
-        )?;
-        check_count(&format!("{p}.min_samples"), self.min_samples, 1, 1 << 30)?;
-        check_count(&format!("{p}.min_walks"), self.min_walks, 1, 1 << 20)?;
-        check_range(
-            &format!("{p}.moving_max_db"),
-            self.moving_max_db,
-            0.0,
-            200.0,
-        )?;
-        check_count(
-            &format!("{p}.moving_min_bins"),
-            self.moving_min_bins,
-            1,
-            1 << 20,
-        )?;
-        check_count(
-            &format!("{p}.walk_offset_min_bins"),
-            self.walk_offset_min_bins,
-            1,
-            1 << 30,
-        )?;
-        check_count(
-            &format!("{p}.max_cells_per_grid"),
-            self.max_cells_per_grid,
-            1,
-            MAX_RADIO_MAP_GRID_CELLS,
-        )?;
-        check_range(
-            &format!("{p}.wifi_max_age_s"),
-            self.wifi_max_age_s,
-            0.0,
-            3600.0,
-        )?;
-        check_range(&format!("{p}.min_rssi_dbm"), self.min_rssi_dbm, -200.0, 0.0)?;
-        check_range(
-            &format!("{p}.max_truth_gap_s"),
-            self.max_truth_gap_s,
-            0.0,
-            86_400.0,
-        )?;
-        check_range(
-            &format!("{p}.phone_height_m"),
-            self.phone_height_m,
-            -10.0,
-            10.0,
-        )?;
-        self.fallback.validate(&format!("{p}.fallback"))
-    }
-}
-
 /// Readings of one transmitter in one bin.
 #[derive(Debug, Clone, Default)]
-struct Bin {
-    n: f64,
+pub(super) struct Bin {
+    pub(super) n: f64,
     sum: f64,
     sum2: f64,
-    pos_sum: Vec2,
+    pub(super) pos_sum: Vec2,
     /// walk -> (count, sum, sum of squares)
-    walks: BTreeMap<usize, (f64, f64, f64)>,
+    pub(super) walks: BTreeMap<usize, (f64, f64, f64)>,
 }
 
 /// Everything learned of one transmitter.
 #[derive(Debug, Clone, Default)]
-struct TxAcc {
-    samples: usize,
-    walks: BTreeSet<usize>,
+pub(super) struct TxAcc {
+    pub(super) samples: usize,
+    pub(super) walks: BTreeSet<usize>,
     /// floor -> bin index -> bin
-    bins: BTreeMap<i32, BTreeMap<(i64, i64), Bin>>,
+    pub(super) bins: BTreeMap<i32, BTreeMap<(i64, i64), Bin>>,
 }
 
 /// Why a surveyed transmitter is not in the map (or how it entered it).
@@ -288,6 +101,9 @@ pub struct BuildSummary {
     /// in the order added, from 0; walks without one are absent).
     pub ble_walk_offsets_db: BTreeMap<usize, f64>,
     pub wifi_walk_offsets_db: BTreeMap<usize, f64>,
+    /// With `spread_calibration`: what leaving one walk out found per kind.
+    pub ble_spread: Option<SpreadFit>,
+    pub wifi_spread: Option<SpreadFit>,
 }
 
 impl BuildSummary {
@@ -465,6 +281,31 @@ impl<'a> RadioMapBuilder<'a> {
                 }
             }
         }
+        let mut fallback = cfg.fallback;
+        let mut curves = [None, None];
+        let footprint = cfg
+            .spread_calibration
+            .then(|| WalkFootprint::of(&acc, cfg.bin_m, cfg.max_distance_m));
+        if cfg.spread_calibration {
+            let fits = super::radio_map_spread::calibrate(&ids, &acc, &cfg, &site_model);
+            for (k, (kind, fit)) in [TxKind::Ble, TxKind::Wifi]
+                .into_iter()
+                .zip(fits)
+                .enumerate()
+            {
+                curves[k] = fit.curve;
+                if let Some(sd) = fit.fallback_sd_db {
+                    match kind {
+                        TxKind::Ble => fallback.ble_sd_db = sd,
+                        TxKind::Wifi => fallback.wifi_sd_db = sd,
+                    }
+                }
+                match kind {
+                    TxKind::Ble => summary.ble_spread = Some(fit),
+                    TxKind::Wifi => summary.wifi_spread = Some(fit),
+                }
+            }
+        }
         let mut tx = Vec::new();
         let mut entries = Vec::new();
         let mut reports = Vec::new();
@@ -504,30 +345,21 @@ impl<'a> RadioMapBuilder<'a> {
                 }
             }
             if rep.rejected.is_none() {
-                let site_i = site_model.lookup(*kind, id);
-                let site_t = site_i
-                    .and_then(|j| site_model.transmitters().get(j))
-                    .cloned();
-                let fb_t = site_t.clone().unwrap_or_else(|| Transmitter {
-                    id: id.clone(),
-                    kind: *kind,
-                    floor: busiest_floor(a),
-                    pos: Vec2::zeros(),
-                    dz_m: 0.0,
-                    model: PathLoss {
-                        rssi_1m_dbm: cfg.fallback.prior_dbm,
-                        exponent: 2.0,
-                    },
-                });
+                let (fb_t, site_t) = fallback_tx(*kind, id, a, &site_model, &cfg);
                 let fb = Fallback {
                     t: &fb_t,
                     has_pathloss: site_t.is_some(),
-                    params: &cfg.fallback,
+                    params: &fallback,
                     floor_rank: &site_model,
                 };
+                let curve = match kind {
+                    TxKind::Ble => curves[0],
+                    TxKind::Wifi => curves[1],
+                }
+                .zip(footprint.as_ref());
                 let mut grids = Vec::new();
                 for (floor, bins) in &a.bins {
-                    if let Some(g) = build_grid(*floor, bins, &cfg, &fb)? {
+                    if let Some(g) = build_grid(*floor, bins, &cfg, &fb, curve)? {
                         summary.cells += g.nx * g.ny;
                         if summary.cells > MAX_RADIO_MAP_CELLS {
                             return Err(Error::Input(format!(
@@ -575,7 +407,7 @@ impl<'a> RadioMapBuilder<'a> {
                 });
             }
         }
-        let mut map = RadioMap::assemble(site, tx, entries, cfg.fallback)?;
+        let mut map = RadioMap::assemble(site, tx, entries, fallback)?;
         if let Some(m) = magnetic {
             let (mag, _) = m.finish()?;
             summary.magnetic_cells = mag.as_ref().map_or(0, |m| {
@@ -614,6 +446,34 @@ fn busiest_floor(a: &TxAcc) -> i32 {
         .map(|(f, b)| (b.values().map(|x| x.n).sum::<f64>(), *f))
         .max_by(|x, y| x.0.total_cmp(&y.0).then(y.1.cmp(&x.1)))
         .map_or(0, |(_, f)| f)
+}
+
+/// The transmitter whose fallback a surveyed (`kind`, `id`) gets: the
+/// site's (also returned, when the site has it), else a prior-only entry on
+/// its busiest floor.
+pub(super) fn fallback_tx(
+    kind: TxKind,
+    id: &str,
+    a: &TxAcc,
+    site_model: &PathLossModel,
+    cfg: &RadioMapConfig,
+) -> (Transmitter, Option<Transmitter>) {
+    let site_t = site_model
+        .lookup(kind, id)
+        .and_then(|j| site_model.transmitters().get(j))
+        .cloned();
+    let fb_t = site_t.clone().unwrap_or_else(|| Transmitter {
+        id: id.to_string(),
+        kind,
+        floor: busiest_floor(a),
+        pos: Vec2::zeros(),
+        dz_m: 0.0,
+        model: PathLoss {
+            rssi_1m_dbm: cfg.fallback.prior_dbm,
+            exponent: 2.0,
+        },
+    });
+    (fb_t, site_t)
 }
 
 /// Centre of the strongest cell of the grid on `floor`.
@@ -672,7 +532,7 @@ fn remove_walk_offsets(acc: &mut [TxAcc], txs: &[usize], min_bins: usize) -> BTr
 /// RMS disagreement of walks in bins two or more walks share, after each
 /// walk's median offset from the shared bins' means; `None` with fewer than
 /// `min_bins` shared bins.
-fn disagreement(a: &TxAcc, min_bins: usize) -> Option<f64> {
+pub(super) fn disagreement(a: &TxAcc, min_bins: usize) -> Option<f64> {
     // (walk, residual) per shared bin
     let mut res: Vec<(usize, f64)> = Vec::new();
     let mut shared = 0usize;
@@ -707,15 +567,15 @@ fn disagreement(a: &TxAcc, min_bins: usize) -> Option<f64> {
 }
 
 /// The fallback of one transmitter while building its grids.
-struct Fallback<'a> {
-    t: &'a Transmitter,
-    has_pathloss: bool,
-    params: &'a FallbackParams,
-    floor_rank: &'a PathLossModel,
+pub(super) struct Fallback<'a> {
+    pub(super) t: &'a Transmitter,
+    pub(super) has_pathloss: bool,
+    pub(super) params: &'a FallbackParams,
+    pub(super) floor_rank: &'a PathLossModel,
 }
 
 impl Fallback<'_> {
-    fn at(&self, floor: i32, p: Vec2) -> (f64, f64) {
+    pub(super) fn at(&self, floor: i32, p: Vec2) -> (f64, f64) {
         let apart = self.floor_rank.floors_apart(floor, self.t.floor);
         fallback_at(self.t, self.has_pathloss, self.params, apart, p)
     }
@@ -744,7 +604,7 @@ impl BinStat {
 
 /// How [`smooth_grid`] turns bins into cells (the units are the values':
 /// dB for the radio map, uT for the magnetic one).
-pub(super) struct SmoothParams {
+pub(super) struct SmoothParams<'a> {
     pub cell_m: f64,
     pub bandwidth_m: f64,
     pub max_distance_m: f64,
@@ -753,6 +613,9 @@ pub(super) struct SmoothParams {
     pub max_sd: f64,
     pub sd_growth_per_m: f64,
     pub max_cells_per_grid: usize,
+    /// The calibrated spread at a cell centre, replacing the smoothed one
+    /// (`RadioMapConfig::spread_calibration`).
+    pub sd_at: Option<&'a dyn Fn(Vec2) -> f64>,
 }
 
 /// The grid of one transmitter on `floor` from its bins; `None` when no
@@ -762,6 +625,7 @@ fn build_grid(
     bins: &BTreeMap<(i64, i64), Bin>,
     cfg: &RadioMapConfig,
     fb: &Fallback<'_>,
+    sd_curve: Option<(SpreadCurve, &WalkFootprint)>,
 ) -> Result<Option<Grid>> {
     let stats: Vec<BinStat> = bins
         .values()
@@ -777,6 +641,15 @@ fn build_grid(
         max_sd: cfg.max_sd_db,
         sd_growth_per_m: cfg.sd_growth_db_per_m,
         max_cells_per_grid: cfg.max_cells_per_grid,
+        sd_at: None,
+    };
+    let sd_at = |c: Vec2| match sd_curve {
+        Some((curve, fp)) => curve.at(fp.distance(floor, c, None).min(cfg.max_distance_m)),
+        None => 0.0,
+    };
+    let p = SmoothParams {
+        sd_at: sd_curve.is_some().then_some(&sd_at as &dyn Fn(Vec2) -> f64),
+        ..p
     };
     smooth_grid(floor, &stats, &p, &|c| fb.at(floor, c))
 }
@@ -860,9 +733,14 @@ pub(super) fn smooth_grid(
             };
             let lambda = if sw + w0 > 0.0 { sw / (sw + w0) } else { 1.0 };
             let mu = lambda * m + (1.0 - lambda) * mu_fb;
-            let g = p.sd_growth_per_m * dmin;
-            let var = lambda * v + (1.0 - lambda) * sd_fb * sd_fb + g * g;
-            let s = var.sqrt().clamp(p.min_sd, p.max_sd);
+            let s = match p.sd_at {
+                Some(f) => f(c),
+                None => {
+                    let g = p.sd_growth_per_m * dmin;
+                    let var = lambda * v + (1.0 - lambda) * sd_fb * sd_fb + g * g;
+                    var.sqrt().clamp(p.min_sd, p.max_sd)
+                }
+            };
             let k = j * nx + i;
             mean[k] = x10(mu);
             sd[k] = x10(s).max(1);

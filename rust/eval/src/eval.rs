@@ -565,23 +565,7 @@ mod tests {
         assert_eq!(json["format"], "fpbp-metrics");
         assert_eq!(json["command"], "eval");
         let e0 = &json["engines"][0];
-        for k in [
-            "coverage",
-            "start",
-            "engine",
-            "logs",
-            "points",
-            "mpe_m",
-            "p50_m",
-            "p75_m",
-            "p80_m",
-            "p95_m",
-            "max_m",
-            "floor_accuracy",
-            "ipin_score_m",
-            "realtime_factor",
-            "no_fix",
-        ] {
+        for k in crate::report::ENGINE_KEYS {
             assert!(e0.get(k).is_some(), "missing {k}");
         }
         assert!(e0["mct_us"].get("radio").is_some() && e0["mct_us"]["fusion"].as_f64().is_some());

@@ -193,23 +193,7 @@ mod tests {
             )
         );
         let eng = &json["engines"][0];
-        for k in [
-            "engine",
-            "logs",
-            "points",
-            "mpe_m",
-            "p50_m",
-            "p75_m",
-            "p80_m",
-            "p95_m",
-            "max_m",
-            "floor_accuracy",
-            "mct_us",
-            "realtime_factor",
-            "no_fix",
-            "coverage",
-            "start",
-        ] {
+        for k in crate::report::ENGINE_KEYS {
             assert!(eng.get(k).is_some(), "missing {k}");
         }
         assert_eq!(eng["track"]["jumps"], 0);

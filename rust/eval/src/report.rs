@@ -17,6 +17,28 @@ use serde::Serialize;
 use crate::metrics::EngineMetrics;
 use crate::runner::{InitMode, LoadedLog, LogRun};
 
+/// Keys every engine object of metrics.json has (eval, replay and demo):
+/// the evaluation protocol's (docs/ARCHITECTURE.md) and the coverage and
+/// start beside them. Other tools read these: they stay stable.
+pub const ENGINE_KEYS: &[&str] = &[
+    "engine",
+    "logs",
+    "points",
+    "coverage",
+    "start",
+    "no_fix",
+    "mpe_m",
+    "p50_m",
+    "p75_m",
+    "p80_m",
+    "p95_m",
+    "max_m",
+    "floor_accuracy",
+    "ipin_score_m",
+    "mct_us",
+    "realtime_factor",
+];
+
 /// `format` of every metrics.json fpbp writes.
 pub const METRICS_FORMAT: &str = "fpbp-metrics";
 /// Its version: 3 = the radio task's times under `mct_us.radio` (version 2

@@ -378,4 +378,4 @@ impl ParticleFilter {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -8,25 +8,7 @@ use crate::fusion::random::std_normal;
 use rand::RngExt;
 use rand::SeedableRng;
 
-fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
-    // eq. 34 alone: no per-particle heading offsets
-    let cfg = FusionConfig {
-        particle_count: m,
-        resampling,
-        heading_offset_sd_rad: 0.0,
-        ..FusionConfig::default()
-    };
-    ParticleFilter::new(&cfg, seed)
-}
-
-fn filter_with_offsets(m: usize, offset_sd_rad: f64, seed: u64) -> ParticleFilter {
-    let cfg = FusionConfig {
-        particle_count: m,
-        heading_offset_sd_rad: offset_sd_rad,
-        ..FusionConfig::default()
-    };
-    ParticleFilter::new(&cfg, seed)
-}
+use crate::fusion::particle_filter::tests::{filter, filter_with_offsets};
 
 /// Walks east 0.7 m per step while the PDR reports a yaw `bias_rad` off,
 /// weighting against BLE fixes on the true path every step; returns the

@@ -6,7 +6,8 @@ use super::*;
 use proptest::prelude::*;
 use rand::RngExt;
 
-fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
+/// A filter of `m` particles with eq. 34 alone (shared with the models' tests).
+pub(crate) fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
     // eq. 34 alone: no per-particle heading offsets
     let cfg = FusionConfig {
         particle_count: m,
@@ -17,7 +18,8 @@ fn filter(m: usize, resampling: Resampling, seed: u64) -> ParticleFilter {
     ParticleFilter::new(&cfg, seed)
 }
 
-fn filter_with_offsets(m: usize, offset_sd_rad: f64, seed: u64) -> ParticleFilter {
+/// A filter of `m` particles with per-particle heading offsets.
+pub(crate) fn filter_with_offsets(m: usize, offset_sd_rad: f64, seed: u64) -> ParticleFilter {
     let cfg = FusionConfig {
         particle_count: m,
         heading_offset_sd_rad: offset_sd_rad,

@@ -196,7 +196,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         "p80_m",
         "jmp/hm",
         "wall/hm",
-        "gml_us",
+        "radio_us",
         "fusion_us",
         "rt_factor",
         "in_wall"

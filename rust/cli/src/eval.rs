@@ -105,7 +105,7 @@ fn print_table(ms: &[EngineMetrics]) {
         "ipin_m",
         "jmp/hm",
         "wall/hm",
-        "mct_gml",
+        "mct_radio",
         "mct_fus",
         "realtime",
         "start"

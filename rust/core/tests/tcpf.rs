@@ -289,103 +289,172 @@ impl fpbp_core::engine::Engine for TrustRecorder {
     }
 }
 
-/// Issue 39's integrity case: a radio model 10 dB wrong over the east
-/// wing of the demo site, walks started at their first truth point. With
-/// `tcpf.integrity` on, the track's error at the truth points in the wing
-/// is at most 0.8 x that without it, and the radio's trust is lower in
-/// the wing than outside it. Guards the integrity check: an option that
-/// changes nothing, or a trust that never drops, fails.
-///
-/// NOT MET: the issue asks for the wing's error within 1.1 x `pdr`'s;
-/// measured 12.2 m against `pdr` 5.7 m (19.4 m without the check), see
-/// docs/lab/tcpf-radio-trust.md. The figures are printed with
-/// `--nocapture`.
-#[test]
-fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
-    use fpbp_core::engine::InitialPosition;
+/// Errors at the truth points east of `WING_X_M` (in order, `None`
+/// without a pose) and the radio's trust there and elsewhere, of one
+/// engine over the walks of [`wing_walks`].
+struct WingRun {
+    wing_errors: Vec<Option<f64>>,
+    trust_in: Vec<f64>,
+    trust_out: Vec<f64>,
+}
+
+/// The wrong-wing case's walks (demo site, 180 s, sim seeds 1-8) with
+/// their first truth point as the told start.
+fn wing_walks(
+    site: &Arc<Site>,
+) -> Vec<(u64, fpbp_sim::SimLog, fpbp_core::engine::InitialPosition)> {
+    (1u64..=8)
+        .map(|seed| {
+            let log = simulate(site, &SimRequest::new(180.0, seed)).unwrap();
+            let t0 = log
+                .events
+                .iter()
+                .find_map(|e| match e {
+                    LogEvent::Truth(t) => Some(*t),
+                    _ => None,
+                })
+                .expect("a truth point");
+            let init = fpbp_core::engine::InitialPosition {
+                x_m: t0.x_m,
+                y_m: t0.y_m,
+                floor: t0.floor.unwrap_or(0),
+                heading_rad: None,
+            };
+            (seed, log, init)
+        })
+        .collect()
+}
+
+/// `tcpf` with `cfg` on the wrong-wing model (or `pdr` when `cfg` is
+/// `None`) over `walks`, engine seed = sim seed.
+fn wing_run(
+    site: &Arc<Site>,
+    walks: &[(u64, fpbp_sim::SimLog, fpbp_core::engine::InitialPosition)],
+    cfg: Option<&EngineConfig>,
+) -> WingRun {
     use fpbp_core::engine::replay::Replayer;
     use fpbp_core::engines::tcpf::TcpfEngine;
-    let site = demo_site();
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.integrity.enabled = true;
-    let (mut tcpf_wing, mut off_wing, mut pdr_wing) = (Vec::new(), Vec::new(), Vec::new());
-    let (mut trust_in, mut trust_out) = (Vec::new(), Vec::new());
-    for seed in 1u64..=8 {
-        let log = simulate(&site, &SimRequest::new(180.0, seed)).unwrap();
-        let first = log.events.iter().find_map(|e| match e {
-            LogEvent::Truth(t) => Some(*t),
-            _ => None,
-        });
-        let t0 = first.expect("a truth point");
-        let init = InitialPosition {
-            x_m: t0.x_m,
-            y_m: t0.y_m,
-            floor: t0.floor.unwrap_or(0),
-            heading_rad: None,
-        };
-        let model = || {
-            Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
-                &site,
-                TcpfEngine::path_loss_params(&cfg),
-            )))
-        };
-        let cfg_s = EngineConfig {
-            seed,
-            ..cfg.clone()
-        };
-        let trust = Arc::new(std::sync::Mutex::new(1.0));
-        let mut rec = TrustRecorder {
-            e: TcpfEngine::with_model(site.clone(), &cfg_s, Some(init), model()).unwrap(),
-            trust: trust.clone(),
-        };
-        // the trust at each truth point (after the last task run before
-        // it), by where the walker is
-        let mut r = Replayer::new(&mut rec);
-        for ev in &log.events {
-            r.push(ev);
-            if let LogEvent::Truth(tp) = ev {
-                if tp.x_m > WING_X_M {
-                    trust_in.push(*trust.lock().unwrap());
-                } else {
-                    trust_out.push(*trust.lock().unwrap());
+    let mut run = WingRun {
+        wing_errors: Vec::new(),
+        trust_in: Vec::new(),
+        trust_out: Vec::new(),
+    };
+    for (seed, log, init) in walks {
+        let out = match cfg {
+            None => {
+                let c = EngineConfig {
+                    seed: *seed,
+                    ..EngineConfig::default()
+                };
+                let mut pdr = build_engine("pdr", site.clone(), &c, Some(*init)).unwrap();
+                replay(pdr.as_mut(), log.events.iter().cloned())
+            }
+            Some(cfg) => {
+                let c = EngineConfig {
+                    seed: *seed,
+                    ..cfg.clone()
+                };
+                let model = Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
+                    site,
+                    TcpfEngine::path_loss_params(&c),
+                )));
+                let trust = Arc::new(std::sync::Mutex::new(1.0));
+                let mut rec = TrustRecorder {
+                    e: TcpfEngine::with_model(site.clone(), &c, Some(*init), model).unwrap(),
+                    trust: trust.clone(),
+                };
+                // the trust at each truth point (after the last task run
+                // before it), by where the walker is
+                let mut r = Replayer::new(&mut rec);
+                for ev in &log.events {
+                    r.push(ev);
+                    if let LogEvent::Truth(tp) = ev {
+                        let t = *trust.lock().unwrap();
+                        if tp.x_m > WING_X_M {
+                            run.trust_in.push(t);
+                        } else {
+                            run.trust_out.push(t);
+                        }
+                    }
                 }
+                r.finish()
             }
-        }
-        let out = r.finish();
-        let off_cfg = EngineConfig {
-            seed,
-            ..EngineConfig::default()
         };
-        let mut plain =
-            TcpfEngine::with_model(site.clone(), &off_cfg, Some(init), model()).unwrap();
-        let out_off = fpbp_core::engine::replay::replay(&mut plain, log.events.iter().cloned());
-        let mut pdr = build_engine("pdr", site.clone(), &off_cfg, Some(init)).unwrap();
-        let out_pdr = fpbp_core::engine::replay::replay(pdr.as_mut(), log.events.iter().cloned());
-        for ((a, b), c) in out.scored.iter().zip(&out_off.scored).zip(&out_pdr.scored) {
-            let (Some(ea), Some(eb), Some(ec)) = (a.error_m(), b.error_m(), c.error_m()) else {
-                continue;
-            };
-            if a.truth.x_m > WING_X_M {
-                tcpf_wing.push(ea);
-                off_wing.push(eb);
-                pdr_wing.push(ec);
-            }
+        for p in out.scored.iter().filter(|p| p.truth.x_m > WING_X_M) {
+            run.wing_errors.push(p.error_m());
         }
     }
-    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
-    assert!(tcpf_wing.len() > 50, "{} wing points", tcpf_wing.len());
-    let (t, o, p) = (mean(&tcpf_wing), mean(&off_wing), mean(&pdr_wing));
+    run
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len().max(1) as f64
+}
+
+/// Issue 39's integrity case: a radio model 10 dB wrong over the east
+/// wing of the demo site, walks started at their first truth point.
+/// - The fit check (`tcpf.integrity.fit_free_z2` 1.7): the track's error
+///   at the truth points in the wing is within 1.1 x `pdr`'s, and the
+///   radio's trust is lower in the wing than outside it.
+/// - The pull check (`tcpf.integrity.enabled`): at most 0.8 x the error
+///   without any check (it does not reach `pdr`: docs/lab/tcpf-radio-trust.md).
+///
+/// Guards both checks: an option that changes nothing, or a trust that
+/// never drops, fails. Figures printed with `--nocapture` (seeds 1-8:
+/// fit check 5.22 m, pull check 12.16 m, neither 19.44 m, `pdr` 5.65 m).
+#[test]
+fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
+    let site = demo_site();
+    let walks = wing_walks(&site);
+    let mut fit_cfg = EngineConfig::default();
+    fit_cfg.tcpf.integrity.fit_free_z2 = 1.7;
+    let mut pull_cfg = EngineConfig::default();
+    pull_cfg.tcpf.integrity.enabled = true;
+    let fit = wing_run(&site, &walks, Some(&fit_cfg));
+    let pull = wing_run(&site, &walks, Some(&pull_cfg));
+    let off = wing_run(&site, &walks, Some(&EngineConfig::default()));
+    let pdr = wing_run(&site, &walks, None);
+    // the wing's points where every run has a pose
+    let n = fit.wing_errors.len();
+    assert!([&pull, &off, &pdr].iter().all(|r| r.wing_errors.len() == n));
+    let both: Vec<usize> = (0..n)
+        .filter(|&i| {
+            [&fit, &pull, &off, &pdr]
+                .iter()
+                .all(|r| r.wing_errors[i].is_some())
+        })
+        .collect();
+    assert!(both.len() > 50, "{} wing points", both.len());
+    let m = |r: &WingRun| {
+        mean(
+            &both
+                .iter()
+                .filter_map(|&i| r.wing_errors[i])
+                .collect::<Vec<_>>(),
+        )
+    };
+    let (f, p, o, q) = (m(&fit), m(&pull), m(&off), m(&pdr));
     eprintln!(
-        "wing ({} points): tcpf integrity {t:.2} m, without {o:.2} m, pdr {p:.2} m",
-        tcpf_wing.len()
+        "wing ({} of {n} points): tcpf fit check {f:.2} m, pull check {p:.2} m, neither {o:.2} m, pdr {q:.2} m",
+        both.len()
+    );
+    let (ti, to) = (mean(&fit.trust_in), mean(&fit.trust_out));
+    eprintln!("fit check's mean radio trust in the wing {ti:.2}, outside {to:.2}");
+    assert!(
+        f <= 1.1 * q,
+        "fit check {f:.2} m against pdr {q:.2} m in the wrong wing"
     );
     assert!(
-        t <= 0.8 * o,
-        "with the check {t:.2} m, without {o:.2} m in the wrong wing"
+        ti < to - 0.3,
+        "fit check's trust in the wing {ti:.2}, outside {to:.2}"
     );
-    let (ti, to) = (mean(&trust_in), mean(&trust_out));
-    eprintln!("mean radio trust in the wing {ti:.2}, outside {to:.2}");
-    // measured 0.90 in the wing, 0.94 outside: the trust drops there, but
-    // little on average (docs/lab/tcpf-radio-trust.md)
-    assert!(ti < to - 0.02, "trust in the wing {ti:.2}, outside {to:.2}");
+    assert!(
+        p <= 0.8 * o,
+        "pull check {p:.2} m, without {o:.2} m in the wrong wing"
+    );
+    let (pi, po) = (mean(&pull.trust_in), mean(&pull.trust_out));
+    assert!(
+        pi < po - 0.02,
+        "pull check's trust in the wing {pi:.2}, outside {po:.2}"
+    );
 }

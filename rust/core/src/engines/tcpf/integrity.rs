@@ -28,6 +28,16 @@
 //! `reseed_min_trust`, and widens the accuracy radius by the part of the
 //! pull it did not follow.
 //!
+//! A second check reads the fit instead of the pulls (`fit_free_z2`): a
+//! model wrong over an area by more than its spread says misfits every
+//! reading there wherever the cloud goes (transmitters off in both
+//! directions cannot be explained by one phone offset or one place), so
+//! the mean squared standardised residual at the cloud, averaged over a
+//! few updates, rises well above its level where the model holds. Beyond
+//! `fit_free_z2` the radio's trust falls steeply and the steps and the
+//! walls carry the track until the fit comes back. Its trust multiplies
+//! the pull check's.
+//!
 //! [`min_trust`]: IntegrityConfig::min_trust
 
 use std::collections::VecDeque;
@@ -69,6 +79,19 @@ pub struct IntegrityConfig {
     /// The accuracy radius gains this share of the pull the engine did
     /// not follow ((1 - trust) x the window's summed pull), in quadrature.
     pub accuracy_share: f64,
+    /// The fit check (independent of `enabled`; 0: off): each radio
+    /// update's readings against the model at the cloud before it, as
+    /// the mean squared standardised residual z^2 (each reading's capped
+    /// at `fit_z2_cap`), averaged over updates at `fit_rate`. While the
+    /// average stays at most `fit_free_z2` the radio keeps full trust;
+    /// beyond, its trust is at most (`fit_free_z2` / average)^`fit_exponent`,
+    /// at least `fit_min_trust`. It follows `after_global_start` as the
+    /// pull check does.
+    pub fit_free_z2: f64,
+    pub fit_z2_cap: f64,
+    pub fit_rate: f64,
+    pub fit_exponent: f64,
+    pub fit_min_trust: f64,
 }
 
 impl Default for IntegrityConfig {
@@ -84,6 +107,11 @@ impl Default for IntegrityConfig {
             min_trust: 0.05,
             reseed_min_trust: 0.5,
             accuracy_share: 1.0,
+            fit_free_z2: 0.0,
+            fit_z2_cap: 25.0,
+            fit_rate: 0.5,
+            fit_exponent: 8.0,
+            fit_min_trust: 0.01,
         }
     }
 }
@@ -100,6 +128,11 @@ impl IntegrityConfig {
             ("min_trust", self.min_trust, 0.001, 1.0),
             ("reseed_min_trust", self.reseed_min_trust, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 100.0),
+            ("fit_free_z2", self.fit_free_z2, 0.0, 1000.0),
+            ("fit_z2_cap", self.fit_z2_cap, 1.0, 10000.0),
+            ("fit_rate", self.fit_rate, 0.001, 1.0),
+            ("fit_exponent", self.fit_exponent, 0.1, 16.0),
+            ("fit_min_trust", self.fit_min_trust, 0.001, 1.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
         }
@@ -131,6 +164,13 @@ pub struct RadioIntegrity {
     /// Pulls the engine refused (re-seedings beyond the budget) since the
     /// last radio update, at full trust, m.
     refused: Vec2,
+    /// Whether the fit check reads the current cloud (`fit_free_z2` set;
+    /// a told start, or any start with `after_global_start`).
+    fit_active: bool,
+    /// The fit check's average z^2 (`None` before the first update) and
+    /// the trust it gives.
+    fit_z2: Option<f64>,
+    fit_trust: f64,
 }
 
 impl Default for RadioIntegrity {
@@ -142,6 +182,9 @@ impl Default for RadioIntegrity {
             pull_m: 0.0,
             active: false,
             refused: Vec2::zeros(),
+            fit_active: false,
+            fit_z2: None,
+            fit_trust: 1.0,
         }
     }
 }
@@ -160,11 +203,39 @@ impl RadioIntegrity {
         self.pull_m = 0.0;
         self.refused = Vec2::zeros();
         self.active = cfg.enabled && (told || cfg.after_global_start);
+        self.fit_active = cfg.fit_free_z2 > 0.0 && (told || cfg.after_global_start);
+        self.fit_z2 = None;
+        self.fit_trust = 1.0;
     }
 
-    /// Whether the current cloud is checked.
+    /// The fit check: `z2` the mean squared standardised residuals (each
+    /// capped) of one radio update's readings at the cloud before it.
+    pub fn on_fit(&mut self, cfg: &IntegrityConfig, z2: f64) {
+        if !self.fit_active || !z2.is_finite() {
+            return;
+        }
+        let avg = match self.fit_z2 {
+            Some(a) => a + cfg.fit_rate * (z2 - a),
+            None => z2,
+        };
+        self.fit_z2 = Some(avg);
+        self.fit_trust = if avg > cfg.fit_free_z2 {
+            (cfg.fit_free_z2 / avg)
+                .powf(cfg.fit_exponent)
+                .clamp(cfg.fit_min_trust, 1.0)
+        } else {
+            1.0
+        };
+    }
+
+    /// Whether the current cloud's pulls are checked.
     pub fn is_active(&self) -> bool {
         self.active
+    }
+
+    /// Whether the current cloud's fit is checked.
+    pub fn fit_is_active(&self) -> bool {
+        self.fit_active
     }
 
     /// The correction the walk allows over the window, m: `allow_m` plus
@@ -199,7 +270,7 @@ impl RadioIntegrity {
             return;
         }
         let pull = if pull.x.is_finite() && pull.y.is_finite() {
-            pull / self.trust.max(cfg.min_trust)
+            pull / self.trust().max(cfg.min_trust.min(cfg.fit_min_trust))
         } else {
             Vec2::zeros()
         } + std::mem::take(&mut self.refused);
@@ -233,7 +304,7 @@ impl RadioIntegrity {
     /// The radio's trust in [`IntegrityConfig::min_trust`, 1] (1 when
     /// unchecked).
     pub fn trust(&self) -> f64 {
-        self.trust
+        (self.trust * self.fit_trust).max(0.0)
     }
 
     /// The part of the window's pull the engine did not follow, m.
@@ -316,6 +387,42 @@ mod tests {
             }
             assert_eq!(r.trust(), 1.0);
         }
+    }
+
+    /// Guards the fit check: a fit within `fit_free_z2` keeps full trust,
+    /// a misfit well beyond it drops the trust to its floor within a few
+    /// updates, the fit coming back restores it; without a told start and
+    /// with `after_global_start` false it reads nothing.
+    #[test]
+    fn a_misfit_beyond_the_free_level_drops_the_trust_and_it_recovers() {
+        let cfg = IntegrityConfig {
+            fit_free_z2: 1.7,
+            ..IntegrityConfig::default()
+        };
+        let mut r = RadioIntegrity::default();
+        r.restart(&cfg, true);
+        for _ in 0..20 {
+            r.on_fit(&cfg, 1.2);
+        }
+        assert_eq!(r.trust(), 1.0);
+        for _ in 0..6 {
+            r.on_fit(&cfg, 4.0);
+        }
+        assert!(r.trust() < 0.05, "trust {}", r.trust());
+        assert!(r.trust() >= cfg.fit_min_trust);
+        for _ in 0..10 {
+            r.on_fit(&cfg, 1.0);
+        }
+        assert_eq!(r.trust(), 1.0);
+        let told_only = IntegrityConfig {
+            after_global_start: false,
+            ..cfg
+        };
+        r.restart(&told_only, false);
+        for _ in 0..10 {
+            r.on_fit(&told_only, 9.0);
+        }
+        assert_eq!(r.trust(), 1.0);
     }
 
     #[test]

@@ -108,6 +108,26 @@ impl TcpfEngine {
         exp_many(xs, ex);
         let cloud_ll = lmax + (ex.iter().sum::<f64>() / n).ln();
         mean_l /= self.pf.particles().len().max(1) as f64;
+        // the fit check: the readings against the model at the cloud
+        // before this update (`integrity.fit_free_z2`)
+        if self.integrity.fit_is_active() {
+            let ws = self.pf.weights();
+            let cap = self.cfg.integrity.fit_z2_cap;
+            let (mut sum, mut n) = (0.0, 0usize);
+            for (k, mm) in meas.iter().enumerate() {
+                if let Some((mu, sd, wsum)) = cloud.weighted_expected(k, ws)
+                    && wsum > 0.0
+                    && sd > 0.0
+                {
+                    let z = (mm.rssi_dbm - o - mu / wsum) / (sd / wsum);
+                    sum += (z * z).min(cap);
+                    n += 1;
+                }
+            }
+            if n > 0 {
+                self.integrity.on_fit(&self.cfg.integrity, sum / n as f64);
+            }
+        }
         let mut log_l = std::mem::take(&mut self.scratch.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
         let support = self.weigh_by_anchors(anchors, floor, trust, &mut log_l);

@@ -192,6 +192,20 @@ impl TcpfEngine {
         }
         let out = scans.weighted_query(&q, ac.k, ac.tau(), ac.metric);
         self.anchors.survey_dist_db = out.first().map(|a| a.dist_db);
+        // the offset was learned where the cloud is: a cloud in the wrong
+        // place has a wrong offset, and the window then looks far from a
+        // survey it is on; as heard, it may be near (`anchors.far_db`)
+        if off != 0.0
+            && ac.far_db > 0.0
+            && self.anchors.survey_dist_db.is_none_or(|d| d > ac.far_db)
+        {
+            let raw: Vec<(u32, f64)> = q.iter().map(|&(j, r)| (j, r + off)).collect();
+            let near = scans.weighted_query(&raw, 1, ac.tau(), ac.metric);
+            if let Some(d) = near.first().map(|a| a.dist_db) {
+                self.anchors.survey_dist_db =
+                    Some(self.anchors.survey_dist_db.map_or(d, |e| e.min(d)));
+            }
+        }
         self.anchors.dropped_far = ac.drop_far_db > 0.0
             && self
                 .anchors

@@ -59,6 +59,10 @@ pub struct TcpfConfig {
     /// by more than this (a kidnapped walker whose steps fit the map where
     /// the cloud is).
     pub recovery_radio_alone_margin: f64,
+    /// `recovery_radio_alone_margin` for a cloud the radio placed (a
+    /// global start, not a told position): what the radio placed, the
+    /// radio may move with less evidence.
+    pub recovery_global_radio_alone_margin: f64,
     /// On a floor without inner walls the radio alone decides (nothing
     /// else can say the cloud is lost) unless the cloud was placed at a
     /// told position (`InitialPosition`, `set_position`): after that only
@@ -359,6 +363,7 @@ impl Default for TcpfConfig {
             recovery_margin: 0.0,
             recovery_min_wall_kill: 0.3,
             recovery_radio_alone_margin: 20.0,
+            recovery_global_radio_alone_margin: 8.0,
             recovery_told_open_floor: false,
             recovery_check_every: 0,
             floor_switch_votes: 3,
@@ -436,6 +441,12 @@ impl TcpfConfig {
             (
                 "recovery_radio_alone_margin",
                 self.recovery_radio_alone_margin,
+                0.0,
+                1e6,
+            ),
+            (
+                "recovery_global_radio_alone_margin",
+                self.recovery_global_radio_alone_margin,
                 0.0,
                 1e6,
             ),

@@ -113,12 +113,15 @@ impl TcpfEngine {
         // with a dip and the walls' consent past `recovery_margin`; when
         // the bound says the gap cannot pass it, the surface (the largest
         // share of an update that computes it) would change nothing
-        let needed = if reseed > 0.0 && walls_agree {
-            self.cfg
-                .recovery_radio_alone_margin
-                .min(self.cfg.recovery_margin)
-        } else {
+        let alone = if self.recovery.told_start {
             self.cfg.recovery_radio_alone_margin
+        } else {
+            self.cfg.recovery_global_radio_alone_margin
+        };
+        let needed = if reseed > 0.0 && walls_agree {
+            alone.min(self.cfg.recovery_margin)
+        } else {
+            alone
         };
         if (reseed > 0.0 || check)
             && !far
@@ -128,7 +131,7 @@ impl TcpfEngine {
                 .is_none_or(|b| b > needed)
             && let Some(surf) = self.surface(floor, meas, missing, &[], self.profile_prior(true))
             && let gap = surf.lse - surf.w.iter().sum::<f64>().ln() - cloud_ll
-            && let Some(fraction) = if gap > self.cfg.recovery_radio_alone_margin {
+            && let Some(fraction) = if gap > alone {
                 Some(self.cfg.recovery_max_fraction)
             } else {
                 (reseed > 0.0 && gap > self.cfg.recovery_margin && walls_agree).then_some(reseed)

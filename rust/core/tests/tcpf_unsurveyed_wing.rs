@@ -1,0 +1,132 @@
+//! A walk that starts in a wing the survey never walked (issue 39): with
+//! a radio map surveyed over the west wing of the demo site only, `tcpf`'s
+//! own start (global) must converge once the walker is in the surveyed
+//! wing.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use fpbp_core::engine::replay::replay;
+use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
+use fpbp_core::events::LogEvent;
+use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
+use fpbp_core::radio::reference_scans::ReferenceScanConfig;
+use fpbp_core::site::Site;
+use fpbp_sim::{SimRequest, simulate};
+
+/// The survey walked only west of this, MCS metres.
+const SURVEYED_X_M: f64 = 34.0;
+
+fn demo_site() -> Arc<Site> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
+    fpbp_core::site::files::load_site(&path).unwrap()
+}
+
+/// `events` without the radio readings made while the walker was east of
+/// `SURVEYED_X_M` (the last truth point before each reading says where).
+fn west_only(events: &[LogEvent]) -> Vec<LogEvent> {
+    let mut x = None;
+    events
+        .iter()
+        .filter(|e| {
+            if let LogEvent::Truth(t) = e {
+                x = Some(t.x_m);
+            }
+            let radio = matches!(e, LogEvent::Ble(_) | LogEvent::Wifi(_));
+            !radio || x.is_some_and(|x| x <= SURVEYED_X_M)
+        })
+        .cloned()
+        .collect()
+}
+
+/// The survey: four simulated walks of 240 s (sim seeds 41-44) with their
+/// readings east of `SURVEYED_X_M` left out, as `fpbp calibrate
+/// --radio-map` builds it (grids and reference scans).
+fn west_wing_map(site: &Site) -> EngineData {
+    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
+        .unwrap()
+        .with_reference_scans(&ReferenceScanConfig::default())
+        .unwrap();
+    for seed in [41, 42, 43, 44] {
+        let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
+        b.add_log(&west_only(&log.events));
+    }
+    let (map, _, _) = b.finish().unwrap();
+    EngineData {
+        radio_map: Some(Arc::new(map)),
+        ..EngineData::default()
+    }
+}
+
+/// Simulated walks of 240 s (sim seeds 1-40) that start at least 4 m
+/// into the unsurveyed east wing and later come at least 4 m into the
+/// surveyed one; the own start (no told position), engine seed = sim
+/// seed. Per walk, the mean error at the truth points inside the
+/// surveyed wing 30-60 s after the walker first came into it.
+///
+/// NOT MET in full: issue 39 asks for convergence within 30 s of
+/// entering the surveyed wing; 13 of the 18 walks are within 5 m then
+/// (mean over the walks 3.84 m); the other five keep a cloud that
+/// started in the wrong place 6-12 m off (docs/tcpf.md "Far from the
+/// survey"). Before the far test read the window as heard and the global
+/// start's radio-alone margin was 8, 10 of 18 (mean 6.87 m). The test
+/// guards what holds: at least 12 of the walks within 5 m, the mean at
+/// most 5 m.
+#[test]
+fn a_start_in_an_unsurveyed_wing_converges_in_the_surveyed_one() {
+    let site = demo_site();
+    let data = west_wing_map(&site);
+    let (mut walks, mut within, mut sum) = (0, 0, 0.0);
+    for seed in 1u64..=40 {
+        let log = simulate(&site, &SimRequest::new(240.0, seed)).unwrap();
+        let truth: Vec<_> = log
+            .events
+            .iter()
+            .filter_map(|e| match e {
+                LogEvent::Truth(t) => Some(*t),
+                _ => None,
+            })
+            .collect();
+        if truth.first().is_none_or(|t| t.x_m <= SURVEYED_X_M + 4.0) {
+            continue;
+        }
+        let Some(enter) = truth.iter().find(|t| t.x_m < SURVEYED_X_M - 4.0) else {
+            continue;
+        };
+        let cfg = EngineConfig {
+            seed,
+            ..EngineConfig::default()
+        };
+        let mut e = build_engine_with("tcpf", site.clone(), &cfg, None, &data).unwrap();
+        let out = replay(e.as_mut(), log.events.iter().cloned());
+        let errors: Vec<f64> = out
+            .scored
+            .iter()
+            .filter(|p| {
+                let dt = (p.truth.t_ns - enter.t_ns) as f64 / 1e9;
+                (30.0..60.0).contains(&dt) && p.truth.x_m <= SURVEYED_X_M
+            })
+            .filter_map(|p| p.error_m())
+            .collect();
+        // walks that left the surveyed wing again within 30 s say nothing
+        if errors.len() < 50 {
+            continue;
+        }
+        let m = errors.iter().sum::<f64>() / errors.len() as f64;
+        eprintln!(
+            "seed {seed}: starts at x {:.1} m, in the surveyed wing after {:.0} s; 30-60 s later {m:.2} m",
+            truth[0].x_m,
+            (enter.t_ns - truth[0].t_ns) as f64 / 1e9
+        );
+        walks += 1;
+        sum += m;
+        if m <= 5.0 {
+            within += 1;
+        }
+    }
+    let mean = sum / f64::from(walks.max(1));
+    eprintln!("{within} of {walks} walks within 5 m 30-60 s after entering; mean {mean:.2} m");
+    assert!(walks >= 15, "{walks} walks");
+    assert!(within >= 12, "{within} of {walks} walks within 5 m");
+    assert!(mean <= 5.0, "mean {mean:.2} m");
+}

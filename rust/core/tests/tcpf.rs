@@ -393,9 +393,10 @@ fn mean(v: &[f64]) -> f64 {
 
 /// Issue 39's integrity case: a radio model 10 dB wrong over the east
 /// wing of the demo site, walks started at their first truth point.
-/// - The fit check (`tcpf.integrity.fit_free_z2` 1.7): the track's error
-///   at the truth points in the wing is within 1.1 x `pdr`'s, and the
-///   radio's trust is lower in the wing than outside it.
+/// - The fit check (on by default with the path-loss model,
+///   `tcpf.integrity.fit_free_z2_without_map` 1.7): the track's error at
+///   the truth points in the wing is within 1.1 x `pdr`'s, and the radio's
+///   trust is lower in the wing than outside it.
 /// - The pull check (`tcpf.integrity.enabled`): at most 0.8 x the error
 ///   without any check (it does not reach `pdr`: docs/lab/tcpf-radio-trust.md).
 ///
@@ -406,13 +407,16 @@ fn mean(v: &[f64]) -> f64 {
 fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
     let site = demo_site();
     let walks = wing_walks(&site);
-    let mut fit_cfg = EngineConfig::default();
-    fit_cfg.tcpf.integrity.fit_free_z2 = 1.7;
-    let mut pull_cfg = EngineConfig::default();
+    // the fit check is on by default with the path-loss model
+    // (`fit_free_z2_without_map`), as here; the other runs turn it off
+    let fit_cfg = EngineConfig::default();
+    let mut off_cfg = EngineConfig::default();
+    off_cfg.tcpf.integrity.fit_free_z2_without_map = 0.0;
+    let mut pull_cfg = off_cfg.clone();
     pull_cfg.tcpf.integrity.enabled = true;
     let fit = wing_run(&site, &walks, Some(&fit_cfg));
     let pull = wing_run(&site, &walks, Some(&pull_cfg));
-    let off = wing_run(&site, &walks, Some(&EngineConfig::default()));
+    let off = wing_run(&site, &walks, Some(&off_cfg));
     let pdr = wing_run(&site, &walks, None);
     // the wing's points where every run has a pose
     let n = fit.wing_errors.len();

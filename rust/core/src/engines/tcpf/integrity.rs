@@ -85,9 +85,13 @@ pub struct IntegrityConfig {
     /// at `fit_z2_cap`), averaged over updates at `fit_rate`. While the
     /// average stays at most `fit_free_z2` the radio keeps full trust;
     /// beyond, its trust is at most (`fit_free_z2` / average)^`fit_exponent`,
-    /// at least `fit_min_trust`. It follows `after_global_start` as the
-    /// pull check does.
+    /// at least `fit_min_trust`. With a radio map; `fit_free_z2_without_map`
+    /// applies when the engine weighs with the path-loss model.
     pub fit_free_z2: f64,
+    pub fit_free_z2_without_map: f64,
+    /// The fit check also after a global start (false: only after a
+    /// told start, `InitialPosition` or `set_position`).
+    pub fit_after_global_start: bool,
     pub fit_z2_cap: f64,
     pub fit_rate: f64,
     pub fit_exponent: f64,
@@ -108,6 +112,8 @@ impl Default for IntegrityConfig {
             reseed_min_trust: 0.5,
             accuracy_share: 1.0,
             fit_free_z2: 0.0,
+            fit_free_z2_without_map: 1.7,
+            fit_after_global_start: false,
             fit_z2_cap: 25.0,
             fit_rate: 0.5,
             fit_exponent: 8.0,
@@ -129,6 +135,12 @@ impl IntegrityConfig {
             ("reseed_min_trust", self.reseed_min_trust, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 100.0),
             ("fit_free_z2", self.fit_free_z2, 0.0, 1000.0),
+            (
+                "fit_free_z2_without_map",
+                self.fit_free_z2_without_map,
+                0.0,
+                1000.0,
+            ),
             ("fit_z2_cap", self.fit_z2_cap, 1.0, 10000.0),
             ("fit_rate", self.fit_rate, 0.001, 1.0),
             ("fit_exponent", self.fit_exponent, 0.1, 16.0),
@@ -137,6 +149,16 @@ impl IntegrityConfig {
             crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
         }
         Ok(())
+    }
+
+    /// The fit check's free level for a path-loss model (`path_loss`) or
+    /// a radio map (0: off).
+    pub fn fit_free_for(&self, path_loss: bool) -> f64 {
+        if path_loss {
+            self.fit_free_z2_without_map
+        } else {
+            self.fit_free_z2
+        }
     }
 }
 
@@ -164,9 +186,13 @@ pub struct RadioIntegrity {
     /// Pulls the engine refused (re-seedings beyond the budget) since the
     /// last radio update, at full trust, m.
     refused: Vec2,
-    /// Whether the fit check reads the current cloud (`fit_free_z2` set;
-    /// a told start, or any start with `after_global_start`).
+    /// The engine weighs with the path-loss model (no radio map): the
+    /// fit check's level is `fit_free_z2_without_map`.
+    path_loss: bool,
+    /// Whether the fit check reads the current cloud (its free level set;
+    /// a told start, or any start with `after_global_start`), and the level.
     fit_active: bool,
+    fit_free: f64,
     /// The fit check's average z^2 (`None` before the first update) and
     /// the trust it gives.
     fit_z2: Option<f64>,
@@ -182,7 +208,9 @@ impl Default for RadioIntegrity {
             pull_m: 0.0,
             active: false,
             refused: Vec2::zeros(),
+            path_loss: false,
             fit_active: false,
+            fit_free: 0.0,
             fit_z2: None,
             fit_trust: 1.0,
         }
@@ -194,6 +222,15 @@ impl Default for RadioIntegrity {
 const MAX_ENTRIES: usize = 4096;
 
 impl RadioIntegrity {
+    /// Unchecked until the first [`RadioIntegrity::restart`]; `path_loss`
+    /// whether the engine weighs with the path-loss model.
+    pub fn for_model(path_loss: bool) -> Self {
+        RadioIntegrity {
+            path_loss,
+            ..RadioIntegrity::default()
+        }
+    }
+
     /// A new cloud (start, floor change): empty window, full trust;
     /// `told` whether the cloud was placed at a told position.
     pub fn restart(&mut self, cfg: &IntegrityConfig, told: bool) {
@@ -203,7 +240,8 @@ impl RadioIntegrity {
         self.pull_m = 0.0;
         self.refused = Vec2::zeros();
         self.active = cfg.enabled && (told || cfg.after_global_start);
-        self.fit_active = cfg.fit_free_z2 > 0.0 && (told || cfg.after_global_start);
+        self.fit_free = cfg.fit_free_for(self.path_loss);
+        self.fit_active = self.fit_free > 0.0 && (told || cfg.fit_after_global_start);
         self.fit_z2 = None;
         self.fit_trust = 1.0;
     }
@@ -219,8 +257,8 @@ impl RadioIntegrity {
             None => z2,
         };
         self.fit_z2 = Some(avg);
-        self.fit_trust = if avg > cfg.fit_free_z2 {
-            (cfg.fit_free_z2 / avg)
+        self.fit_trust = if avg > self.fit_free {
+            (self.fit_free / avg)
                 .powf(cfg.fit_exponent)
                 .clamp(cfg.fit_min_trust, 1.0)
         } else {
@@ -389,17 +427,16 @@ mod tests {
         }
     }
 
-    /// Guards the fit check: a fit within `fit_free_z2` keeps full trust,
-    /// a misfit well beyond it drops the trust to its floor within a few
-    /// updates, the fit coming back restores it; without a told start and
-    /// with `after_global_start` false it reads nothing.
+    /// Guards the fit check: a fit within the free level keeps full
+    /// trust, a misfit well beyond it drops the trust to its floor within
+    /// a few updates, the fit coming back restores it. The level is
+    /// `fit_free_z2_without_map` for a path-loss model, `fit_free_z2`
+    /// (default 0: off) for a radio map; after a global start it reads
+    /// nothing unless `fit_after_global_start`.
     #[test]
     fn a_misfit_beyond_the_free_level_drops_the_trust_and_it_recovers() {
-        let cfg = IntegrityConfig {
-            fit_free_z2: 1.7,
-            ..IntegrityConfig::default()
-        };
-        let mut r = RadioIntegrity::default();
+        let cfg = IntegrityConfig::default();
+        let mut r = RadioIntegrity::for_model(true);
         r.restart(&cfg, true);
         for _ in 0..20 {
             r.on_fit(&cfg, 1.2);
@@ -414,15 +451,31 @@ mod tests {
             r.on_fit(&cfg, 1.0);
         }
         assert_eq!(r.trust(), 1.0);
-        let told_only = IntegrityConfig {
-            after_global_start: false,
-            ..cfg
-        };
-        r.restart(&told_only, false);
+        // a global start: unchecked by default, checked with the flag
+        r.restart(&cfg, false);
         for _ in 0..10 {
-            r.on_fit(&told_only, 9.0);
+            r.on_fit(&cfg, 9.0);
         }
         assert_eq!(r.trust(), 1.0);
+        let global = IntegrityConfig {
+            fit_after_global_start: true,
+            ..cfg.clone()
+        };
+        r.restart(&global, false);
+        r.on_fit(&global, 9.0);
+        assert!(r.trust() < 0.05, "trust {}", r.trust());
+        // a radio map: off by default, on with `fit_free_z2`
+        let mut m = RadioIntegrity::for_model(false);
+        m.restart(&cfg, true);
+        m.on_fit(&cfg, 9.0);
+        assert_eq!(m.trust(), 1.0);
+        let on = IntegrityConfig {
+            fit_free_z2: 1.7,
+            ..cfg
+        };
+        m.restart(&on, true);
+        m.on_fit(&on, 9.0);
+        assert!(m.trust() < 0.05, "trust {}", m.trust());
     }
 
     #[test]

@@ -185,7 +185,7 @@ impl TcpfEngine {
             offset: OffsetState::new(&cfg.offset),
             online_step: OnlineStep::new(&cfg.online_step),
             jump_key: 0,
-            integrity: RadioIntegrity::default(),
+            integrity: RadioIntegrity::for_model(!model.learned_per_floor()),
             recovery: RecoveryState::of_site(&site),
             publisher: Publisher::default(),
             magnetic: MagneticState::default(),

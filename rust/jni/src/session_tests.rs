@@ -379,7 +379,8 @@ fn stats_report_the_phone_offset_the_engine_estimates() {
     assert_eq!(Some(offset), core.rssi_offset_db);
     assert!(offset < -4.0, "9 dB weaker, estimated {offset} dB");
     assert_eq!(stats["step_scale"].as_f64(), core.step_scale);
-    // the radio's trust as the engine reports it (1: integrity off)
+    // the radio's trust as the engine reports it (1: no told start, so
+    // the fit check does not run, and the pull check is off)
     assert_eq!(stats["radio_trust"].as_f64(), core.radio_trust);
     assert_eq!(core.radio_trust, Some(1.0));
     let other = Session::from_engine(Box::new(Recorder::default()));

@@ -141,8 +141,8 @@ pub struct EngineStats {
     #[serde(default)]
     pub step_scale: Option<f64>,
     /// How far the engine trusts its radio in [0, 1] (`tcpf`: 1 unless
-    /// its `integrity` check found the radio pulling the track beyond what
-    /// the walk allows).
+    /// its `integrity` checks found the radio misfitting its model or
+    /// pulling the track beyond what the walk allows).
     #[serde(default)]
     pub radio_trust: Option<f64>,
 }

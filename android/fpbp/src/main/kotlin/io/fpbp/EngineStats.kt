@@ -21,9 +21,10 @@ package io.fpbp
  *   lengths by (1 while its online step length is off); null for engines
  *   without one.
  * @property radioTrust how far the engine trusts its radio, in [0, 1]: 1
- *   unless its integrity check (`tcpf.integrity`, off by default) found the
- *   radio pulling the track beyond what the walk allows (then the accuracy
- *   radius is widened too); null for engines without one, or a library
+ *   unless its integrity checks (`tcpf.integrity`) found the radio misfitting
+ *   its model (on by default after a told start without a radio map) or
+ *   pulling the track beyond what the walk allows (off by default; then the
+ *   accuracy radius is widened too); null for engines without one, or a library
  *   older than the field.
  */
 data class EngineStats(

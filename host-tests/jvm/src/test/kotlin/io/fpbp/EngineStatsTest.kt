@@ -57,7 +57,7 @@ class EngineStatsTest {
                 assertEquals(1, s.bleObservations)
                 assertTrue(s.bridgeRejected >= 1, "the unknown sensor type is counted: $s")
                 assertEquals(name == "tcpf", s.rssiOffsetDb != null, "offset for $name: $s")
-                // tcpf reports its radio trust (1: integrity is off by default), the others none
+                // tcpf reports its radio trust (1: no told start, no check lowers it), the others none
                 assertEquals(if (name == "tcpf") 1.0 else null, s.radioTrust, "radio trust for $name: $s")
             }
         }

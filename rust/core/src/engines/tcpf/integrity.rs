@@ -92,6 +92,11 @@ pub struct IntegrityConfig {
     /// The fit check also after a global start (false: only after a
     /// told start, `InitialPosition` or `set_position`).
     pub fit_after_global_start: bool,
+    /// A fit trust below `reseed_min_trust` holds the re-seeding, unless
+    /// the steps' wall kills (moving average, share of the moving
+    /// particles) reach this: then the misfit is the cloud's (a wrong
+    /// told start), not the model's.
+    pub fit_lost_wall_kill: f64,
     pub fit_z2_cap: f64,
     pub fit_rate: f64,
     pub fit_exponent: f64,
@@ -114,6 +119,7 @@ impl Default for IntegrityConfig {
             fit_free_z2: 0.0,
             fit_free_z2_without_map: 1.7,
             fit_after_global_start: false,
+            fit_lost_wall_kill: 0.5,
             fit_z2_cap: 25.0,
             fit_rate: 0.5,
             fit_exponent: 8.0,
@@ -145,6 +151,7 @@ impl IntegrityConfig {
             ("fit_rate", self.fit_rate, 0.001, 1.0),
             ("fit_exponent", self.fit_exponent, 0.1, 16.0),
             ("fit_min_trust", self.fit_min_trust, 0.001, 1.0),
+            ("fit_lost_wall_kill", self.fit_lost_wall_kill, 0.0, 1.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
         }
@@ -343,6 +350,16 @@ impl RadioIntegrity {
     /// unchecked).
     pub fn trust(&self) -> f64 {
         (self.trust * self.fit_trust).max(0.0)
+    }
+
+    /// The pull check's part of [`RadioIntegrity::trust`].
+    pub fn pull_trust(&self) -> f64 {
+        self.trust
+    }
+
+    /// The fit check's part of [`RadioIntegrity::trust`].
+    pub fn fit_trust(&self) -> f64 {
+        self.fit_trust
     }
 
     /// The part of the window's pull the engine did not follow, m.

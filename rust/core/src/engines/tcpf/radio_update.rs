@@ -137,8 +137,14 @@ impl TcpfEngine {
         self.learn_offset(t_ns, meas, &cloud, per_particle);
         self.scratch.cloud = cloud;
         self.pf.resample_if_degenerate();
-        // a radio the walk disagrees with re-seeds nothing (`integrity`)
-        let trusted = trust >= self.cfg.integrity.reseed_min_trust;
+        // a radio the walk disagrees with re-seeds nothing (`integrity`),
+        // nor one that misfits its model, unless the walls say clearly
+        // that the cloud is lost: then the misfit is the cloud's, not the
+        // model's (a wrong told start)
+        let ic = &self.cfg.integrity;
+        let lost = self.recovery.kill_ema >= ic.fit_lost_wall_kill;
+        let trusted = self.integrity.pull_trust() >= ic.reseed_min_trust
+            && (lost || self.integrity.fit_trust() >= ic.reseed_min_trust);
         let fit = RadioFit {
             mean_l,
             cloud_ll,

@@ -255,10 +255,24 @@ fn radio_update(c: &mut Criterion) {
 }
 
 /// One radio task and one fusion task of the engine with the 10 beacons
-/// nearest to a point heard 3 dB below the site's path-loss model.
+/// nearest to a point heard 3 dB below the site's path-loss model, after
+/// a told start: with the defaults (the fit check on, as without a radio
+/// map) and with the fit check off (its cost is the difference).
 fn engine_update(c: &mut Criterion) {
     let site = std::sync::Arc::new(demo_site());
-    let cfg = EngineConfig::default();
+    let mut off = EngineConfig::default();
+    off.tcpf.integrity.fit_free_z2_without_map = 0.0;
+    for (cfg, name) in [(EngineConfig::default(), ""), (off, ", fit check off")] {
+        engine_update_with(c, &site, &cfg, name);
+    }
+}
+
+fn engine_update_with(
+    c: &mut Criterion,
+    site: &std::sync::Arc<Site>,
+    cfg: &EngineConfig,
+    name: &str,
+) {
     let at = Vec2::new(30.0, 20.0);
     let init = InitialPosition {
         x_m: at.x,
@@ -266,7 +280,7 @@ fn engine_update(c: &mut Criterion) {
         floor: 0,
         heading_rad: None,
     };
-    let mut e = TcpfEngine::new(site, &cfg, Some(init)).expect("tcpf on the demo site");
+    let mut e = TcpfEngine::new(site.clone(), cfg, Some(init)).expect("tcpf on the demo site");
     let mut heard: Vec<(f64, String, f64)> = e
         .model()
         .transmitters()
@@ -281,7 +295,9 @@ fn engine_update(c: &mut Criterion) {
     heard.truncate(10);
     let mut t_ns = 0i64;
     c.bench_function(
-        "tcpf engine radio + fusion task, 1000 particles, 10 beacons heard (no step)",
+        &format!(
+            "tcpf engine radio + fusion task, 1000 particles, 10 beacons heard (no step){name}"
+        ),
         |b| {
             common::run(b, || {
                 t_ns += 1_000_000_000;

@@ -298,11 +298,12 @@ struct WingRun {
     trust_out: Vec<f64>,
 }
 
+/// One walk of the wrong-wing case: sim seed, log, told start.
+type WingWalk = (u64, fpbp_sim::SimLog, fpbp_core::engine::InitialPosition);
+
 /// The wrong-wing case's walks (demo site, 180 s, sim seeds 1-8) with
 /// their first truth point as the told start.
-fn wing_walks(
-    site: &Arc<Site>,
-) -> Vec<(u64, fpbp_sim::SimLog, fpbp_core::engine::InitialPosition)> {
+fn wing_walks(site: &Arc<Site>) -> Vec<WingWalk> {
     (1u64..=8)
         .map(|seed| {
             let log = simulate(site, &SimRequest::new(180.0, seed)).unwrap();
@@ -327,11 +328,7 @@ fn wing_walks(
 
 /// `tcpf` with `cfg` on the wrong-wing model (or `pdr` when `cfg` is
 /// `None`) over `walks`, engine seed = sim seed.
-fn wing_run(
-    site: &Arc<Site>,
-    walks: &[(u64, fpbp_sim::SimLog, fpbp_core::engine::InitialPosition)],
-    cfg: Option<&EngineConfig>,
-) -> WingRun {
+fn wing_run(site: &Arc<Site>, walks: &[WingWalk], cfg: Option<&EngineConfig>) -> WingRun {
     use fpbp_core::engine::replay::Replayer;
     use fpbp_core::engines::tcpf::TcpfEngine;
     let mut run = WingRun {

@@ -199,8 +199,11 @@ impl TcpfEngine {
             && ac.far_db > 0.0
             && self.anchors.survey_dist_db.is_none_or(|d| d > ac.far_db)
         {
-            let raw: Vec<(u32, f64)> = q.iter().map(|&(j, r)| (j, r + off)).collect();
-            let near = scans.weighted_query(&raw, 1, ac.tau(), ac.metric);
+            let heard = self
+                .anchors
+                .trail
+                .vector(t_ns, scans.config().window_s, 0.0);
+            let near = scans.weighted_query(&heard, 1, ac.tau(), ac.metric);
             if let Some(d) = near.first().map(|a| a.dist_db) {
                 self.anchors.survey_dist_db =
                     Some(self.anchors.survey_dist_db.map_or(d, |e| e.min(d)));

@@ -163,16 +163,25 @@ impl TcpfEngine {
         } else {
             // residuals of each transmitter averaged over the weighted
             // cloud (only the one offset for the whole cloud reads them)
-            let ws = self.pf.weights();
-            let residuals: Vec<(f64, f64, f64)> = meas
-                .iter()
-                .enumerate()
-                .filter_map(|(k, mm)| {
-                    let (mu, sd, wsum) = cloud.weighted_expected(k, ws)?;
-                    (wsum > 0.0).then(|| (mm.rssi_dbm - mu / wsum, mu / wsum, sd / wsum))
-                })
+            let residuals: Vec<(f64, f64, f64)> = at_weighted_cloud(meas, cloud, self.pf.weights())
+                .map(|(rssi, mu, sd)| (rssi - mu, mu, sd))
                 .collect();
             self.offset.phone.observe(t_ns, &residuals);
         }
     }
+}
+
+/// Each reading of `meas` with the model's mean and spread averaged over
+/// the cloud with `weights` (dBm, dBm, dB; `cloud` holds the last
+/// evaluation's per-particle values): readings of transmitters the model
+/// does not know, or with no weight, are left out.
+pub(super) fn at_weighted_cloud<'a>(
+    meas: &'a [Measurement],
+    cloud: &'a CloudLikelihood,
+    weights: &'a [f64],
+) -> impl Iterator<Item = (f64, f64, f64)> + 'a {
+    meas.iter().enumerate().filter_map(move |(k, mm)| {
+        let (mu, sd, wsum) = cloud.weighted_expected(k, weights)?;
+        (wsum > 0.0).then(|| (mm.rssi_dbm, mu / wsum, sd / wsum))
+    })
 }

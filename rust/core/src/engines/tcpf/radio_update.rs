@@ -5,6 +5,7 @@ use std::sync::Arc;
 
 use super::TcpfEngine;
 use super::anchors::Anchor;
+use super::offsets::at_weighted_cloud;
 use super::recovery::RadioFit;
 use crate::Vec2;
 use crate::fast_math::{exp_many, max_many};
@@ -111,15 +112,11 @@ impl TcpfEngine {
         // the fit check: the readings against the model at the cloud
         // before this update (`integrity.fit_free_z2`)
         if self.integrity.fit_is_active() {
-            let ws = self.pf.weights();
             let cap = self.cfg.integrity.fit_z2_cap;
             let (mut sum, mut n) = (0.0, 0usize);
-            for (k, mm) in meas.iter().enumerate() {
-                if let Some((mu, sd, wsum)) = cloud.weighted_expected(k, ws)
-                    && wsum > 0.0
-                    && sd > 0.0
-                {
-                    let z = (mm.rssi_dbm - o - mu / wsum) / (sd / wsum);
+            for (rssi, mu, sd) in at_weighted_cloud(meas, &cloud, self.pf.weights()) {
+                if sd > 0.0 {
+                    let z = (rssi - o - mu) / sd;
                     sum += (z * z).min(cap);
                     n += 1;
                 }

@@ -22,10 +22,12 @@ fn thread_cpu() -> Duration {
 
 /// Whether `FPBP_BENCH_CLOCK=cpu`.
 pub fn cpu_clock() -> bool {
-    std::env::var("FPBP_BENCH_CLOCK").is_ok_and(|v| v == "cpu")
+    static CPU: std::sync::OnceLock<bool> = std::sync::OnceLock::new();
+    *CPU.get_or_init(|| std::env::var("FPBP_BENCH_CLOCK").is_ok_and(|v| v == "cpu"))
 }
 
 /// Times `f` with the clock chosen by `FPBP_BENCH_CLOCK`.
+#[allow(dead_code)] // not every bench times whole iterations
 pub fn run<O>(b: &mut Bencher, mut f: impl FnMut() -> O) {
     let cpu = cpu_clock();
     b.iter_custom(|iters| {
@@ -35,4 +37,29 @@ pub fn run<O>(b: &mut Bencher, mut f: impl FnMut() -> O) {
         }
         if cpu { thread_cpu() - t0 } else { w0.elapsed() }
     })
+}
+
+/// A stopwatch on the clock chosen by `FPBP_BENCH_CLOCK`, for benches that
+/// time only part of each iteration (`iter_custom`).
+#[allow(dead_code)] // not every bench times parts
+pub struct Stopwatch {
+    cpu: Option<Duration>,
+    wall: Instant,
+}
+
+#[allow(dead_code)]
+impl Stopwatch {
+    pub fn start() -> Stopwatch {
+        Stopwatch {
+            cpu: cpu_clock().then(thread_cpu),
+            wall: Instant::now(),
+        }
+    }
+
+    pub fn elapsed(&self) -> Duration {
+        match self.cpu {
+            Some(c0) => thread_cpu() - c0,
+            None => self.wall.elapsed(),
+        }
+    }
 }

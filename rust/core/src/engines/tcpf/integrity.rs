@@ -101,6 +101,18 @@ pub struct IntegrityConfig {
     pub fit_rate: f64,
     pub fit_exponent: f64,
     pub fit_min_trust: f64,
+    /// The accuracy radius gains this many metres per unit of the fit
+    /// check's average z^2 beyond `fit_accuracy_free_z2`, in quadrature
+    /// (the readings misfit the map at the cloud: the cloud may be where
+    /// the map is wrong, or the map right where the cloud is not). The
+    /// average is kept for this even where the fit check does not touch
+    /// the trust (with a radio map, after a global start); the track is
+    /// unchanged. With a radio map; the `_without_map` pair applies when
+    /// the engine weighs with the path-loss model. 0 = off.
+    pub fit_accuracy_m_per_z2: f64,
+    pub fit_accuracy_free_z2: f64,
+    pub fit_accuracy_m_per_z2_without_map: f64,
+    pub fit_accuracy_free_z2_without_map: f64,
 }
 
 impl Default for IntegrityConfig {
@@ -124,6 +136,10 @@ impl Default for IntegrityConfig {
             fit_rate: 0.5,
             fit_exponent: 8.0,
             fit_min_trust: 0.01,
+            fit_accuracy_m_per_z2: 48.0,
+            fit_accuracy_free_z2: 1.0,
+            fit_accuracy_m_per_z2_without_map: 4.0,
+            fit_accuracy_free_z2_without_map: 1.0,
         }
     }
 }
@@ -152,10 +168,47 @@ impl IntegrityConfig {
             ("fit_exponent", self.fit_exponent, 0.1, 16.0),
             ("fit_min_trust", self.fit_min_trust, 0.001, 1.0),
             ("fit_lost_wall_kill", self.fit_lost_wall_kill, 0.0, 1.0),
+            (
+                "fit_accuracy_m_per_z2",
+                self.fit_accuracy_m_per_z2,
+                0.0,
+                100.0,
+            ),
+            (
+                "fit_accuracy_m_per_z2_without_map",
+                self.fit_accuracy_m_per_z2_without_map,
+                0.0,
+                100.0,
+            ),
+            (
+                "fit_accuracy_free_z2",
+                self.fit_accuracy_free_z2,
+                0.0,
+                1000.0,
+            ),
+            (
+                "fit_accuracy_free_z2_without_map",
+                self.fit_accuracy_free_z2_without_map,
+                0.0,
+                1000.0,
+            ),
         ] {
             crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
         }
         Ok(())
+    }
+
+    /// The radius per unit of excess z^2 (0: off) and the free level,
+    /// for a path-loss model (`path_loss`) or a radio map.
+    pub fn fit_accuracy_for(&self, path_loss: bool) -> (f64, f64) {
+        if path_loss {
+            (
+                self.fit_accuracy_m_per_z2_without_map,
+                self.fit_accuracy_free_z2_without_map,
+            )
+        } else {
+            (self.fit_accuracy_m_per_z2, self.fit_accuracy_free_z2)
+        }
     }
 
     /// The fit check's free level for a path-loss model (`path_loss`) or
@@ -200,6 +253,11 @@ pub struct RadioIntegrity {
     /// a told start, or any start with `after_global_start`), and the level.
     fit_active: bool,
     fit_free: f64,
+    /// Whether the fit's average is kept (the fit check, or the accuracy
+    /// radius's `fit_accuracy_m_per_z2*`), and the radius's slope.
+    fit_watched: bool,
+    fit_accuracy_slope: f64,
+    fit_accuracy_free: f64,
     /// The fit check's average z^2 (`None` before the first update) and
     /// the trust it gives.
     fit_z2: Option<f64>,
@@ -218,6 +276,9 @@ impl Default for RadioIntegrity {
             path_loss: false,
             fit_active: false,
             fit_free: 0.0,
+            fit_watched: false,
+            fit_accuracy_slope: 0.0,
+            fit_accuracy_free: 0.0,
             fit_z2: None,
             fit_trust: 1.0,
         }
@@ -249,6 +310,8 @@ impl RadioIntegrity {
         self.active = cfg.enabled && (told || cfg.after_global_start);
         self.fit_free = cfg.fit_free_for(self.path_loss);
         self.fit_active = self.fit_free > 0.0 && (told || cfg.fit_after_global_start);
+        (self.fit_accuracy_slope, self.fit_accuracy_free) = cfg.fit_accuracy_for(self.path_loss);
+        self.fit_watched = self.fit_active || self.fit_accuracy_slope > 0.0;
         self.fit_z2 = None;
         self.fit_trust = 1.0;
     }
@@ -256,7 +319,7 @@ impl RadioIntegrity {
     /// The fit check: `z2` the mean squared standardised residuals (each
     /// capped) of one radio update's readings at the cloud before it.
     pub fn on_fit(&mut self, cfg: &IntegrityConfig, z2: f64) {
-        if !self.fit_active || !z2.is_finite() {
+        if !self.fit_watched || !z2.is_finite() {
             return;
         }
         let avg = match self.fit_z2 {
@@ -264,6 +327,9 @@ impl RadioIntegrity {
             None => z2,
         };
         self.fit_z2 = Some(avg);
+        if !self.fit_active {
+            return;
+        }
         self.fit_trust = if avg > self.fit_free {
             (self.fit_free / avg)
                 .powf(cfg.fit_exponent)
@@ -281,6 +347,22 @@ impl RadioIntegrity {
     /// Whether the current cloud's fit is checked.
     pub fn fit_is_active(&self) -> bool {
         self.fit_active
+    }
+
+    /// Whether the fit's average is kept ([`RadioIntegrity::on_fit`]).
+    pub fn fit_is_watched(&self) -> bool {
+        self.fit_watched
+    }
+
+    /// The radius the fit adds (`fit_accuracy_m_per_z2*` x the average
+    /// z^2 beyond `fit_accuracy_free_z2*`), m.
+    pub fn fit_accuracy_m(&self) -> f64 {
+        match self.fit_z2 {
+            Some(a) if self.fit_accuracy_slope > 0.0 => {
+                self.fit_accuracy_slope * (a - self.fit_accuracy_free).max(0.0)
+            }
+            _ => 0.0,
+        }
     }
 
     /// The correction the walk allows over the window, m: `allow_m` plus
@@ -503,5 +585,45 @@ mod tests {
         };
         let e = bad.validate().unwrap_err().to_string();
         assert!(e.contains("tcpf.integrity.min_trust"), "{e}");
+    }
+
+    /// Guards the radius's fit term: with a radio map the fit check
+    /// leaves the trust alone (default), yet the average is kept, and the
+    /// radius gains `fit_accuracy_m_per_z2` per unit beyond the free
+    /// level, after a global start too; 0 turns the term off.
+    #[test]
+    fn a_misfit_widens_the_radius_without_touching_the_trust() {
+        let cfg = IntegrityConfig::default();
+        let mut m = RadioIntegrity::for_model(false);
+        m.restart(&cfg, false);
+        assert_eq!(m.fit_accuracy_m(), 0.0);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 * 0.5);
+        assert_eq!(m.fit_accuracy_m(), 0.0);
+        m.restart(&cfg, false);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 0.5);
+        assert_eq!(m.trust(), 1.0);
+        let want = cfg.fit_accuracy_m_per_z2 * 0.5;
+        assert!(
+            (m.fit_accuracy_m() - want).abs() < 1e-9,
+            "{}",
+            m.fit_accuracy_m()
+        );
+        let off = IntegrityConfig {
+            fit_accuracy_m_per_z2: 0.0,
+            ..cfg.clone()
+        };
+        m.restart(&off, false);
+        m.on_fit(&off, 9.0);
+        assert_eq!(m.fit_accuracy_m(), 0.0);
+        // the path-loss model has its own slope
+        let mut p = RadioIntegrity::for_model(true);
+        p.restart(&cfg, false);
+        p.on_fit(&cfg, cfg.fit_accuracy_free_z2_without_map + 1.0);
+        let want = cfg.fit_accuracy_m_per_z2_without_map;
+        assert!(
+            (p.fit_accuracy_m() - want).abs() < 1e-9,
+            "{}",
+            p.fit_accuracy_m()
+        );
     }
 }

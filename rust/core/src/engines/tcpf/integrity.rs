@@ -113,6 +113,13 @@ pub struct IntegrityConfig {
     pub fit_accuracy_free_z2: f64,
     pub fit_accuracy_m_per_z2_without_map: f64,
     pub fit_accuracy_free_z2_without_map: f64,
+    /// The radius's z^2 is its own average, at this rate per update
+    /// (slower than `fit_rate`: the radius should not flicker with each
+    /// update's misfit).
+    pub fit_accuracy_rate: f64,
+    /// The radius's fit term is at most this, m (a radius beyond a
+    /// floor's size says no more than "lost"; 0 = no cap).
+    pub fit_accuracy_max_m: f64,
 }
 
 impl Default for IntegrityConfig {
@@ -140,6 +147,8 @@ impl Default for IntegrityConfig {
             fit_accuracy_free_z2: 1.0,
             fit_accuracy_m_per_z2_without_map: 4.0,
             fit_accuracy_free_z2_without_map: 1.0,
+            fit_accuracy_rate: 0.1,
+            fit_accuracy_max_m: 30.0,
         }
     }
 }
@@ -258,10 +267,13 @@ pub struct RadioIntegrity {
     fit_watched: bool,
     fit_accuracy_slope: f64,
     fit_accuracy_free: f64,
+    fit_accuracy_max: f64,
     /// The fit check's average z^2 (`None` before the first update) and
     /// the trust it gives.
     fit_z2: Option<f64>,
     fit_trust: f64,
+    /// The radius's average z^2 (`fit_accuracy_rate`).
+    fit_accuracy_z2: Option<f64>,
 }
 
 impl Default for RadioIntegrity {
@@ -279,8 +291,10 @@ impl Default for RadioIntegrity {
             fit_watched: false,
             fit_accuracy_slope: 0.0,
             fit_accuracy_free: 0.0,
+            fit_accuracy_max: 0.0,
             fit_z2: None,
             fit_trust: 1.0,
+            fit_accuracy_z2: None,
         }
     }
 }
@@ -311,9 +325,11 @@ impl RadioIntegrity {
         self.fit_free = cfg.fit_free_for(self.path_loss);
         self.fit_active = self.fit_free > 0.0 && (told || cfg.fit_after_global_start);
         (self.fit_accuracy_slope, self.fit_accuracy_free) = cfg.fit_accuracy_for(self.path_loss);
+        self.fit_accuracy_max = cfg.fit_accuracy_max_m;
         self.fit_watched = self.fit_active || self.fit_accuracy_slope > 0.0;
         self.fit_z2 = None;
         self.fit_trust = 1.0;
+        self.fit_accuracy_z2 = None;
     }
 
     /// The fit check: `z2` the mean squared standardised residuals (each
@@ -327,6 +343,10 @@ impl RadioIntegrity {
             None => z2,
         };
         self.fit_z2 = Some(avg);
+        self.fit_accuracy_z2 = Some(match self.fit_accuracy_z2 {
+            Some(a) => a + cfg.fit_accuracy_rate * (z2 - a),
+            None => z2,
+        });
         if !self.fit_active {
             return;
         }
@@ -357,9 +377,14 @@ impl RadioIntegrity {
     /// The radius the fit adds (`fit_accuracy_m_per_z2*` x the average
     /// z^2 beyond `fit_accuracy_free_z2*`), m.
     pub fn fit_accuracy_m(&self) -> f64 {
-        match self.fit_z2 {
+        match self.fit_accuracy_z2 {
             Some(a) if self.fit_accuracy_slope > 0.0 => {
-                self.fit_accuracy_slope * (a - self.fit_accuracy_free).max(0.0)
+                let r = self.fit_accuracy_slope * (a - self.fit_accuracy_free).max(0.0);
+                if self.fit_accuracy_max > 0.0 {
+                    r.min(self.fit_accuracy_max)
+                } else {
+                    r
+                }
             }
             _ => 0.0,
         }
@@ -590,7 +615,8 @@ mod tests {
     /// Guards the radius's fit term: with a radio map the fit check
     /// leaves the trust alone (default), yet the average is kept, and the
     /// radius gains `fit_accuracy_m_per_z2` per unit beyond the free
-    /// level, after a global start too; 0 turns the term off.
+    /// level, after a global start too, smoothed and capped; 0 turns the
+    /// term off.
     #[test]
     fn a_misfit_widens_the_radius_without_touching_the_trust() {
         let cfg = IntegrityConfig::default();
@@ -615,6 +641,17 @@ mod tests {
         m.restart(&off, false);
         m.on_fit(&off, 9.0);
         assert_eq!(m.fit_accuracy_m(), 0.0);
+        // one update's spike moves the radius by `fit_accuracy_rate` of
+        // it, and the term never exceeds `fit_accuracy_max_m`
+        m.restart(&cfg, false);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 10.0);
+        let want = cfg.fit_accuracy_m_per_z2 * 10.0 * cfg.fit_accuracy_rate;
+        assert!((m.fit_accuracy_m() - want.min(cfg.fit_accuracy_max_m)).abs() < 1e-9);
+        for _ in 0..100 {
+            m.on_fit(&cfg, 25.0);
+        }
+        assert_eq!(m.fit_accuracy_m(), cfg.fit_accuracy_max_m);
         // the path-loss model has its own slope
         let mut p = RadioIntegrity::for_model(true);
         p.restart(&cfg, false);

@@ -201,6 +201,8 @@ impl IntegrityConfig {
                 0.0,
                 1000.0,
             ),
+            ("fit_accuracy_rate", self.fit_accuracy_rate, 0.001, 1.0),
+            ("fit_accuracy_max_m", self.fit_accuracy_max_m, 0.0, 1e6),
         ] {
             crate::bounds::check_range(&format!("tcpf.integrity.{f}"), v, lo, hi)?;
         }
@@ -262,12 +264,6 @@ pub struct RadioIntegrity {
     /// a told start, or any start with `after_global_start`), and the level.
     fit_active: bool,
     fit_free: f64,
-    /// Whether the fit's average is kept (the fit check, or the accuracy
-    /// radius's `fit_accuracy_m_per_z2*`), and the radius's slope.
-    fit_watched: bool,
-    fit_accuracy_slope: f64,
-    fit_accuracy_free: f64,
-    fit_accuracy_max: f64,
     /// The fit check's average z^2 (`None` before the first update) and
     /// the trust it gives.
     fit_z2: Option<f64>,
@@ -288,10 +284,6 @@ impl Default for RadioIntegrity {
             path_loss: false,
             fit_active: false,
             fit_free: 0.0,
-            fit_watched: false,
-            fit_accuracy_slope: 0.0,
-            fit_accuracy_free: 0.0,
-            fit_accuracy_max: 0.0,
             fit_z2: None,
             fit_trust: 1.0,
             fit_accuracy_z2: None,
@@ -324,9 +316,6 @@ impl RadioIntegrity {
         self.active = cfg.enabled && (told || cfg.after_global_start);
         self.fit_free = cfg.fit_free_for(self.path_loss);
         self.fit_active = self.fit_free > 0.0 && (told || cfg.fit_after_global_start);
-        (self.fit_accuracy_slope, self.fit_accuracy_free) = cfg.fit_accuracy_for(self.path_loss);
-        self.fit_accuracy_max = cfg.fit_accuracy_max_m;
-        self.fit_watched = self.fit_active || self.fit_accuracy_slope > 0.0;
         self.fit_z2 = None;
         self.fit_trust = 1.0;
         self.fit_accuracy_z2 = None;
@@ -335,7 +324,7 @@ impl RadioIntegrity {
     /// The fit check: `z2` the mean squared standardised residuals (each
     /// capped) of one radio update's readings at the cloud before it.
     pub fn on_fit(&mut self, cfg: &IntegrityConfig, z2: f64) {
-        if !self.fit_watched || !z2.is_finite() {
+        if !self.fit_is_watched(cfg) || !z2.is_finite() {
             return;
         }
         let avg = match self.fit_z2 {
@@ -369,19 +358,22 @@ impl RadioIntegrity {
         self.fit_active
     }
 
-    /// Whether the fit's average is kept ([`RadioIntegrity::on_fit`]).
-    pub fn fit_is_watched(&self) -> bool {
-        self.fit_watched
+    /// Whether the fit's average is kept ([`RadioIntegrity::on_fit`]):
+    /// for the fit check, or for the accuracy radius's
+    /// `fit_accuracy_m_per_z2*`.
+    pub fn fit_is_watched(&self, cfg: &IntegrityConfig) -> bool {
+        self.fit_active || cfg.fit_accuracy_for(self.path_loss).0 > 0.0
     }
 
     /// The radius the fit adds (`fit_accuracy_m_per_z2*` x the average
-    /// z^2 beyond `fit_accuracy_free_z2*`), m.
-    pub fn fit_accuracy_m(&self) -> f64 {
+    /// z^2 beyond `fit_accuracy_free_z2*`, at most `fit_accuracy_max_m`), m.
+    pub fn fit_accuracy_m(&self, cfg: &IntegrityConfig) -> f64 {
+        let (slope, free) = cfg.fit_accuracy_for(self.path_loss);
         match self.fit_accuracy_z2 {
-            Some(a) if self.fit_accuracy_slope > 0.0 => {
-                let r = self.fit_accuracy_slope * (a - self.fit_accuracy_free).max(0.0);
-                if self.fit_accuracy_max > 0.0 {
-                    r.min(self.fit_accuracy_max)
+            Some(a) if slope > 0.0 => {
+                let r = slope * (a - free).max(0.0);
+                if cfg.fit_accuracy_max_m > 0.0 {
+                    r.min(cfg.fit_accuracy_max_m)
                 } else {
                     r
                 }
@@ -610,6 +602,12 @@ mod tests {
         };
         let e = bad.validate().unwrap_err().to_string();
         assert!(e.contains("tcpf.integrity.min_trust"), "{e}");
+        let bad = IntegrityConfig {
+            fit_accuracy_rate: 0.0,
+            ..IntegrityConfig::default()
+        };
+        let e = bad.validate().unwrap_err().to_string();
+        assert!(e.contains("tcpf.integrity.fit_accuracy_rate"), "{e}");
     }
 
     /// Guards the radius's fit term: with a radio map the fit check
@@ -622,17 +620,17 @@ mod tests {
         let cfg = IntegrityConfig::default();
         let mut m = RadioIntegrity::for_model(false);
         m.restart(&cfg, false);
-        assert_eq!(m.fit_accuracy_m(), 0.0);
+        assert_eq!(m.fit_accuracy_m(&cfg), 0.0);
         m.on_fit(&cfg, cfg.fit_accuracy_free_z2 * 0.5);
-        assert_eq!(m.fit_accuracy_m(), 0.0);
+        assert_eq!(m.fit_accuracy_m(&cfg), 0.0);
         m.restart(&cfg, false);
         m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 0.5);
         assert_eq!(m.trust(), 1.0);
         let want = cfg.fit_accuracy_m_per_z2 * 0.5;
         assert!(
-            (m.fit_accuracy_m() - want).abs() < 1e-9,
+            (m.fit_accuracy_m(&cfg) - want).abs() < 1e-9,
             "{}",
-            m.fit_accuracy_m()
+            m.fit_accuracy_m(&cfg)
         );
         let off = IntegrityConfig {
             fit_accuracy_m_per_z2: 0.0,
@@ -640,27 +638,27 @@ mod tests {
         };
         m.restart(&off, false);
         m.on_fit(&off, 9.0);
-        assert_eq!(m.fit_accuracy_m(), 0.0);
+        assert_eq!(m.fit_accuracy_m(&off), 0.0);
         // one update's spike moves the radius by `fit_accuracy_rate` of
         // it, and the term never exceeds `fit_accuracy_max_m`
         m.restart(&cfg, false);
         m.on_fit(&cfg, cfg.fit_accuracy_free_z2);
         m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 10.0);
         let want = cfg.fit_accuracy_m_per_z2 * 10.0 * cfg.fit_accuracy_rate;
-        assert!((m.fit_accuracy_m() - want.min(cfg.fit_accuracy_max_m)).abs() < 1e-9);
+        assert!((m.fit_accuracy_m(&cfg) - want.min(cfg.fit_accuracy_max_m)).abs() < 1e-9);
         for _ in 0..100 {
             m.on_fit(&cfg, 25.0);
         }
-        assert_eq!(m.fit_accuracy_m(), cfg.fit_accuracy_max_m);
+        assert_eq!(m.fit_accuracy_m(&cfg), cfg.fit_accuracy_max_m);
         // the path-loss model has its own slope
         let mut p = RadioIntegrity::for_model(true);
         p.restart(&cfg, false);
         p.on_fit(&cfg, cfg.fit_accuracy_free_z2_without_map + 1.0);
         let want = cfg.fit_accuracy_m_per_z2_without_map;
         assert!(
-            (p.fit_accuracy_m() - want).abs() < 1e-9,
+            (p.fit_accuracy_m(&cfg) - want).abs() < 1e-9,
             "{}",
-            p.fit_accuracy_m()
+            p.fit_accuracy_m(&cfg)
         );
     }
 }

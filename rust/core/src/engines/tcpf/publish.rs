@@ -199,7 +199,7 @@ impl TcpfEngine {
         } else {
             r
         };
-        r.hypot(self.integrity.fit_accuracy_m())
+        r.hypot(self.integrity.fit_accuracy_m(&self.cfg.integrity))
     }
 
     /// Publishes the pose at `t_ns` from the cloud ([`Self::estimate`]).

@@ -111,7 +111,7 @@ impl TcpfEngine {
         mean_l /= self.pf.particles().len().max(1) as f64;
         // the fit check: the readings against the model at the cloud
         // before this update (`integrity.fit_free_z2`)
-        if self.integrity.fit_is_watched() {
+        if self.integrity.fit_is_watched(&self.cfg.integrity) {
             let cap = self.cfg.integrity.fit_z2_cap;
             let (mut sum, mut n) = (0.0, 0usize);
             for (rssi, mu, sd) in at_weighted_cloud(meas, &cloud, self.pf.weights()) {

@@ -35,6 +35,7 @@ use std::time::Duration;
 mod common;
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fpbp_core::engine::replay::hand_over;
 use fpbp_core::engine::{Engine, InitialPosition, Task};
 use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::events::LogEvent;
@@ -152,7 +153,7 @@ impl<'a> WalkDriver<'a> {
                 break;
             }
             tasks += self.run_due(t, Some(timed));
-            self.feed(e);
+            hand_over(self.engine.as_mut(), e);
             self.next += 1;
         }
         if timed == Timed::All {
@@ -175,22 +176,12 @@ impl<'a> WalkDriver<'a> {
                 err += (p.x_m - tp.x_m).hypot(p.y_m - tp.y_m);
                 n += 1;
             }
-            self.feed(e);
+            hand_over(self.engine.as_mut(), e);
             self.next += 1;
         }
         self.restart();
         let n = n.max(1) as f64;
         (acc / n, err / n)
-    }
-
-    fn feed(&mut self, e: &LogEvent) {
-        match e {
-            LogEvent::Sensor(s) => self.engine.on_sensor(s),
-            LogEvent::Ble(b) => self.engine.on_ble(b),
-            LogEvent::Gnss(g) => self.engine.on_gnss(g),
-            LogEvent::Wifi(w) => self.engine.on_wifi(w),
-            LogEvent::Truth(_) => {}
-        }
     }
 }
 

@@ -110,14 +110,11 @@ impl<'a> Replayer<'a> {
         self.run_due(t);
         self.last_t = Some(self.last_t.map_or(t, |l| l.max(t)));
         match event {
-            LogEvent::Sensor(e) => self.engine.on_sensor(e),
-            LogEvent::Ble(b) => self.engine.on_ble(b),
-            LogEvent::Gnss(g) => self.engine.on_gnss(g),
-            LogEvent::Wifi(w) => self.engine.on_wifi(w),
             LogEvent::Truth(tp) => self.out.scored.push(ScoredPoint {
                 truth: *tp,
                 estimate: self.engine.pose(),
             }),
+            _ => hand_over(self.engine, event),
         }
     }
 
@@ -160,6 +157,18 @@ impl<'a> Replayer<'a> {
         };
         self.out.wall_s = self.started.elapsed().as_secs_f64();
         self.out
+    }
+}
+
+/// Hands one input event (sensor, BLE, GNSS, WiFi) to `engine`; truth
+/// points are never given to an engine and are ignored here.
+pub fn hand_over(engine: &mut dyn Engine, event: &LogEvent) {
+    match event {
+        LogEvent::Sensor(e) => engine.on_sensor(e),
+        LogEvent::Ble(b) => engine.on_ble(b),
+        LogEvent::Gnss(g) => engine.on_gnss(g),
+        LogEvent::Wifi(w) => engine.on_wifi(w),
+        LogEvent::Truth(_) => {}
     }
 }
 

@@ -231,6 +231,16 @@ pub struct AnchorConfig {
     /// (which then does not wait for them) nor weigh the particles, vote
     /// the floor or widen the accuracy radius. 0 = off.
     pub drop_far_db: f64,
+    /// Far from the survey (`far_db`), the survey's own walked lines are
+    /// where the phone is least likely: had it been there, its window
+    /// would resemble their scans. Each radio update then takes
+    /// `far_survey_penalty` x exp(-d^2 / (2 `far_survey_sigma_m`^2)) off
+    /// the log-likelihood of a particle `d` m from the nearest reference
+    /// scan (tempered by the radio's trust), so the cloud is not drawn onto
+    /// the nearest surveyed corridor by the map's extrapolation. 0 = off.
+    pub far_survey_penalty: f64,
+    /// See `far_survey_penalty`, m.
+    pub far_survey_sigma_m: f64,
     /// Re-seeding: when the cloud's support (its weighted mean of the
     /// mixture over the mixture's peak) stays below `reseed_support` for
     /// `reseed_after` radio updates, `reseed_fraction` of the particles
@@ -282,6 +292,8 @@ impl Default for AnchorConfig {
             start_wait_s: 5.0,
             far_db: 12.0,
             drop_far_db: 0.0,
+            far_survey_penalty: 3.0,
+            far_survey_sigma_m: 4.0,
             reseed_support: 0.1,
             reseed_after: 3,
             reseed_fraction: 0.0,
@@ -316,6 +328,8 @@ impl AnchorConfig {
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
             ("far_db", self.far_db, 0.0, 1000.0),
             ("drop_far_db", self.drop_far_db, 0.0, 1000.0),
+            ("far_survey_penalty", self.far_survey_penalty, 0.0, 100.0),
+            ("far_survey_sigma_m", self.far_survey_sigma_m, 0.5, 50.0),
             ("floor_vote_share", self.floor_vote_share, 0.0, 1.0),
             ("reseed_support", self.reseed_support, 0.0, 1.0),
             ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),

@@ -39,7 +39,8 @@
 //! (re-seeding from the likelihood surface), `start` and `cells` (the
 //! global start and its cells), `offsets` (the phone's RSSI offset),
 //! `floor` (floor votes and changes), `motion` (steps, online step scale),
-//! `magnetic` (the magnetic update), `publish` (the published pose),
+//! `magnetic` (the magnetic update), `survey_reach` (the distance to the
+//! survey's walks), `publish` (the published pose),
 //! `counts` (diagnostics).
 
 mod anchors;
@@ -57,6 +58,7 @@ mod radio_update;
 mod recovery;
 mod start;
 pub mod step_scale;
+mod survey_reach;
 
 use std::sync::Arc;
 
@@ -88,6 +90,7 @@ use publish::Publisher;
 use radio_update::Scratch;
 use recovery::RecoveryState;
 use start::StartState;
+use survey_reach::SurveyReach;
 
 /// The tightly coupled radio-likelihood particle filter. Its state is
 /// grouped by concern; each group lives in the module that works on it.
@@ -129,6 +132,9 @@ pub struct TcpfEngine {
     magnetic: MagneticState,
     /// Reused buffers of the steps and the radio update (`radio_update.rs`).
     scratch: Scratch,
+    /// The distance to the survey's walks, built at its first use
+    /// (`survey_reach.rs`).
+    reach: Option<SurveyReach>,
     ble_period_ns: i64,
     fusion_period_ns: i64,
     stats: EngineStats,
@@ -190,6 +196,7 @@ impl TcpfEngine {
             publisher: Publisher::default(),
             magnetic: MagneticState::default(),
             scratch: Scratch::default(),
+            reach: None,
             ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),

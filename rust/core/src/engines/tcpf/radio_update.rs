@@ -128,6 +128,7 @@ impl TcpfEngine {
         let mut log_l = std::mem::take(&mut self.scratch.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
         let support = self.weigh_by_anchors(anchors, floor, trust, &mut log_l);
+        self.weigh_by_survey_reach(floor, trust, &mut log_l);
         self.pf.weight_log(&log_l);
         self.scratch.log_l = log_l;
         self.counts.radio_updates += 1;

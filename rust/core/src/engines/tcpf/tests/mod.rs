@@ -197,6 +197,13 @@ fn config_errors_name_the_field() {
     cfg.tcpf.offset.prior_sd_db = f64::NAN;
     let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
     assert!(e.to_string().contains("tcpf.offset.prior_sd_db"), "{e}");
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.anchors.far_survey_sigma_m = 0.0;
+    let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
+    assert!(
+        e.to_string().contains("tcpf.anchors.far_survey_sigma_m"),
+        "{e}"
+    );
 }
 
 /// A published pose of a cloud spread over the floor (the global start

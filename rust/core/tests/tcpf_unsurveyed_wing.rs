@@ -69,8 +69,9 @@ fn west_wing_map(site: &Site) -> EngineData {
 /// entering the surveyed wing; 14 of the 18 walks are within 5 m then
 /// (mean over the walks 3.50 m; 13 and 3.84 m before the far-survey
 /// penalty); the other four keep a cloud that started in the wrong place
-/// 5-11 m off (docs/tcpf.md "Far from the survey"). Before the far test read the window as heard and the global
-/// start's radio-alone margin was 8, 10 of 18 (mean 6.87 m). The test
+/// 5-11 m off (docs/tcpf.md "Far from the survey"). Before the far test
+/// read the window as heard and the global start's radio-alone margin
+/// was 8, 10 of 18 (mean 6.87 m). The test
 /// guards what holds: at least 12 of the walks within 5 m, the mean at
 /// most 5 m.
 #[test]
@@ -207,19 +208,13 @@ fn told_start_errors(site: &Arc<Site>, data: &EngineData, cfg: &EngineConfig) ->
     let (mut sum, mut n) = ([0.0; 3], [0usize; 2]);
     for seed in 1u64..=24 {
         let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
-        let first = log
-            .events
-            .iter()
-            .find_map(|e| match e {
-                LogEvent::Truth(t) => Some(InitialPosition {
-                    x_m: t.x_m,
-                    y_m: t.y_m,
-                    floor: t.floor.unwrap_or(site.default_floor()),
-                    heading_rad: None,
-                }),
-                _ => None,
-            })
-            .unwrap();
+        let t = log.events.iter().find_map(LogEvent::as_truth).unwrap();
+        let first = InitialPosition {
+            x_m: t.x_m,
+            y_m: t.y_m,
+            floor: t.floor.unwrap_or_else(|| site.default_floor()),
+            heading_rad: None,
+        };
         let cfg = EngineConfig {
             seed,
             ..cfg.clone()

@@ -21,7 +21,10 @@
 //!   engine timed too (the PDR's step detection and the per-step predict
 //!   included: everything the engine spends per second of walking);
 //! - `own start, first 15 s, tasks`: the engine's global start, its
-//!   first 15 s replayed over and over (the wide cloud of a start).
+//!   first 15 s replayed over and over (the wide cloud of a start);
+//! - `told start, tasks, adaptive count` and `own start, first 15 s,
+//!   tasks, adaptive count`: the same with the adaptive particle count
+//!   (`adaptive_count` 4000 / 500, off by default), to compare.
 //!
 //! Before timing, each case is run once untimed and its mean accuracy
 //! radius and mean error are printed, so the figures say which cloud they
@@ -199,6 +202,9 @@ fn engine_walk(c: &mut Criterion) {
         heading_rad: None,
     };
     let cfg = EngineConfig::default();
+    let mut adaptive = EngineConfig::default();
+    adaptive.tcpf.adaptive_count.max_particles = 4000;
+    adaptive.tcpf.adaptive_count.min_particles = 500;
     let mut fit_off = EngineConfig::default();
     fit_off.tcpf.integrity.fit_free_z2_without_map = 0.0;
     fit_off.tcpf.integrity.fit_accuracy_m_per_z2_without_map = 0.0;
@@ -226,6 +232,22 @@ fn engine_walk(c: &mut Criterion) {
             (
                 "own start, first 15 s, tasks",
                 &cfg,
+                None,
+                own_end_ns,
+                Timed::Tasks,
+            ),
+            // the adaptive count (`adaptive_count`, 4000 / 500 particles;
+            // off by default): what it saves or costs
+            (
+                "told start, tasks, adaptive count",
+                &adaptive,
+                told_all,
+                last_ns,
+                Timed::Tasks,
+            ),
+            (
+                "own start, first 15 s, tasks, adaptive count",
+                &adaptive,
                 None,
                 own_end_ns,
                 Timed::Tasks,

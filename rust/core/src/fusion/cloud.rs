@@ -87,9 +87,14 @@ pub fn scale_flagged(weights: &mut [f64], flags: impl Iterator<Item = bool>, fac
 /// `target(i)` (i = 0, 1, ... counted in f64, exact below 2^53) on the
 /// cumulative `weights`, walked once.
 #[inline]
-fn select_sources(weights: &[f64], index: &mut Vec<usize>, mut target: impl FnMut(f64) -> f64) {
+fn select_sources(
+    weights: &[f64],
+    index: &mut Vec<usize>,
+    n: usize,
+    mut target: impl FnMut(f64) -> f64,
+) {
     let m = weights.len();
-    index.resize(m, 0);
+    index.resize(n, 0);
     let mut cum = weights[0];
     let mut j = 0usize;
     let mut fi = 0.0f64;
@@ -277,22 +282,29 @@ impl Cloud {
     /// targets (i + u0) / m); stratified then draws one more per particle
     /// (targets (i + u_i) / m).
     pub fn resample(&mut self, rng: &mut Pcg64, scheme: Resampling) {
-        let m = self.positions.len();
-        if m == 0 {
+        self.resample_to(rng, scheme, self.positions.len());
+    }
+
+    /// As [`Cloud::resample`], but draws `n` particles from the m there are
+    /// (targets (i + u) / n): the cloud grows or shrinks to `n`, weights
+    /// 1/n. Nothing happens without particles or with `n` 0.
+    pub fn resample_to(&mut self, rng: &mut Pcg64, scheme: Resampling, n: usize) {
+        if self.positions.is_empty() || n == 0 {
             return;
         }
-        let inv_m = 1.0 / m as f64;
+        let inv_n = 1.0 / n as f64;
         let u0: f64 = rng.random::<f64>();
         match scheme {
             Resampling::Systematic => {
-                select_sources(&self.weights, &mut self.index, |fi| (fi + u0) * inv_m)
+                select_sources(&self.weights, &mut self.index, n, |fi| (fi + u0) * inv_n)
             }
-            Resampling::Stratified => select_sources(&self.weights, &mut self.index, |fi| {
-                (fi + rng.random::<f64>()) * inv_m
+            Resampling::Stratified => select_sources(&self.weights, &mut self.index, n, |fi| {
+                (fi + rng.random::<f64>()) * inv_n
             }),
         }
         self.copy_sources();
-        self.weights.iter_mut().for_each(|w| *w = inv_m);
+        self.weights.clear();
+        self.weights.resize(n, inv_n);
     }
 
     /// Stratified resampling (Kitagawa) on unnormalised weights: one
@@ -306,7 +318,7 @@ impl Cloud {
             return;
         }
         let n = m as f64;
-        select_sources(&self.weights, &mut self.index, |fi| {
+        select_sources(&self.weights, &mut self.index, m, |fi| {
             (fi + rng.random::<f64>()) / n * total
         });
         self.copy_sources();
@@ -318,15 +330,18 @@ impl Cloud {
 
     /// Every particle i := particle `index[i]`: positions and the carried
     /// columns with one value per particle.
+    /// When the count changes, every full column comes along (one not
+    /// carried holds one value for all: it must keep one per particle).
     fn copy_sources(&mut self) {
         let m = self.positions.len();
         let src = &self.index;
+        let resized = src.len() != m;
         self.scratch_positions.clear();
         self.scratch_positions
             .extend(src.iter().map(|&j| self.positions[j]));
         std::mem::swap(&mut self.positions, &mut self.scratch_positions);
         for c in &mut self.columns {
-            if c.carried && c.values.len() == m {
+            if (c.carried || resized) && c.values.len() == m {
                 self.scratch_values.clear();
                 self.scratch_values.extend(src.iter().map(|&j| c.values[j]));
                 std::mem::swap(&mut c.values, &mut self.scratch_values);
@@ -582,6 +597,41 @@ mod tests {
         assert!(c.weights().iter().all(|w| *w == 0.25));
         let (pos, [a, b]) = c.positions_and_columns_mut([0, 2]);
         assert_eq!((pos.len(), a.len(), b.len()), (4, 4, 0));
+    }
+
+    #[test]
+    fn resample_to_grows_and_shrinks_the_cloud_with_every_column() {
+        let mut rng = Pcg64::seed_from_u64(1);
+        let mut c = Cloud::new(4, 2);
+        for i in 0..4 {
+            c.push(
+                Vec2::new(f64::from(i), 0.0),
+                [0.1, 0.2, 0.3, 0.4][i as usize],
+            );
+        }
+        c.set_column(0, vec![0.0, 10.0, 20.0, 30.0]);
+        c.set_column(1, vec![7.0; 4]);
+        c.set_carried(1, false);
+        c.resample_to(&mut rng, Resampling::Systematic, 10);
+        assert_eq!(c.len(), 10);
+        assert!(c.weights().iter().all(|w| *w == 0.1));
+        // systematic: 1, 2, 3, 4 copies of the particles of weight 0.1..0.4
+        let xs: Vec<f64> = c.positions().iter().map(|p| p.x).collect();
+        for (i, n) in [1, 2, 3, 4].into_iter().enumerate() {
+            assert_eq!(xs.iter().filter(|x| **x == i as f64).count(), n, "{xs:?}");
+        }
+        // the carried column follows its particle, the other keeps one
+        // value per particle
+        for (p, v) in c.positions().iter().zip(c.column(0)) {
+            assert_eq!(*v, 10.0 * p.x);
+        }
+        assert_eq!(c.column(1), &[7.0; 10]);
+        c.resample_to(&mut rng, Resampling::Stratified, 3);
+        assert_eq!((c.len(), c.column(0).len(), c.column(1).len()), (3, 3, 3));
+        assert!(c.weights().iter().all(|w| (*w - 1.0 / 3.0).abs() < 1e-15));
+        // nothing to draw to
+        c.resample_to(&mut rng, Resampling::Systematic, 0);
+        assert_eq!(c.len(), 3);
     }
 
     #[test]

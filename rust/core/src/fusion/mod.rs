@@ -13,6 +13,7 @@
 //! - [`random`]: normals (Box-Muller, batched), points in a disc or around
 //!   a centre, uniform indices; [`uniforms`]: many PCG-64 uniforms at once.
 //! - [`cells`]: draws from a likelihood surface over cells.
+//! - [`kld`]: the adaptive particle count of KLD-sampling (Fox 2003).
 //!
 //! FP-BP on it:
 //! - [`fpbp_models`]: eq. 34 (transition, with per-particle heading offsets
@@ -30,6 +31,7 @@ pub mod cells;
 pub mod cloud;
 pub mod config;
 pub mod fpbp_models;
+pub mod kld;
 pub mod model;
 pub mod particle_filter;
 pub mod ppc;

@@ -161,13 +161,17 @@ impl ParticleFilter {
     /// effective sample size has fallen below that fraction of m. Returns
     /// whether it resampled.
     pub fn resample_if_degenerate(&mut self) -> bool {
-        if self.accumulates_weights()
-            && self.effective_sample_size() >= self.resample_ess_fraction * self.cloud.len() as f64
-        {
+        if !self.is_degenerate() {
             return false;
         }
         self.resample();
         true
+    }
+
+    /// Whether [`ParticleFilter::resample_if_degenerate`] would resample.
+    pub fn is_degenerate(&self) -> bool {
+        !(self.accumulates_weights()
+            && self.effective_sample_size() >= self.resample_ess_fraction * self.cloud.len() as f64)
     }
 
     /// Normalises the weights to sum 1 (uniform when they are all zero or not finite).
@@ -179,6 +183,19 @@ impl ParticleFilter {
     /// weights become 1/m.
     pub fn resample(&mut self) {
         self.cloud.resample(&mut self.rng, self.resampling);
+    }
+
+    /// Resamples to `n` particles ([`Cloud::resample_to`]): the cloud
+    /// grows or shrinks (an adaptive count, [`super::kld`]); weights 1/n.
+    /// The count of later initialisations is unchanged.
+    pub fn resample_to(&mut self, n: usize) {
+        self.cloud.resample_to(&mut self.rng, self.resampling, n);
+    }
+
+    /// The number of particles the next [`ParticleFilter::init_at`] or
+    /// [`ParticleFilter::init_from_cells`] places (at least 1).
+    pub fn set_count(&mut self, n: usize) {
+        self.count = n.max(1);
     }
 
     /// The weighted mean of the particles, eq. 35b (`None` without particles).

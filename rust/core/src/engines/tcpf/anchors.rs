@@ -137,7 +137,7 @@ impl TcpfEngine {
             .unzip();
         let site = Arc::clone(&self.site);
         let map = site.floor(floor);
-        self.pf.resample();
+        self.resample_now();
         let n = self
             .pf
             .inject_from_cells(ac.reseed_fraction, &cells, &w, 2.0 * ac.sigma_m, |q| {

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::Result;
 use crate::fusion::FusionConfig;
+use crate::fusion::kld::KldConfig;
 use crate::radio::LikelihoodConfig;
 use crate::radio::offset::OffsetConfig;
 use crate::radio::reference_scans::ScanMetric;
@@ -109,6 +110,15 @@ pub struct TcpfConfig {
     pub median_iters: usize,
     pub accuracy_scale: f64,
     pub accuracy_min_m: f64,
+    /// After a global start the radius keeps a memory of how wide the
+    /// start was: it is widened (in quadrature) by
+    /// `start_accuracy_share` x the start cloud's RMS spread x
+    /// exp(-t / `start_accuracy_decay_s`), t the time since the start.
+    /// The cloud narrows within seconds of radio updates whose errors are
+    /// correlated, faster than the evidence warrants; 0 = off.
+    pub start_accuracy_share: f64,
+    /// See `start_accuracy_share`, s.
+    pub start_accuracy_decay_s: f64,
     /// Converged cloud, weaker radio: the tempered log-likelihood is
     /// scaled by c + (1 - c) g, g = clamp((spread - lo) / (hi - lo), 0, 1)
     /// of the cloud's RMS spread before the update (c =
@@ -131,6 +141,11 @@ pub struct TcpfConfig {
     pub online_step: OnlineStepConfig,
     /// The radio checked against the walk (module `integrity`).
     pub integrity: IntegrityConfig,
+    /// The particle count adapted to the cloud's extent (KLD-sampling,
+    /// module `particle_count`): many while the cloud is wide (a global
+    /// start), few once it has converged; `max_particles` 0 keeps
+    /// `particle_count` throughout.
+    pub adaptive_count: KldConfig,
 }
 
 /// The magnetic likelihood: with a radio map that carries the survey's
@@ -390,6 +405,8 @@ impl Default for TcpfConfig {
             median_iters: 0,
             accuracy_scale: 1.6,
             accuracy_min_m: 2.4,
+            start_accuracy_share: 0.25,
+            start_accuracy_decay_s: 30.0,
             converged_radio_scale: 1.0,
             converged_spread_lo_m: 3.0,
             converged_spread_hi_m: 8.0,
@@ -402,6 +419,7 @@ impl Default for TcpfConfig {
             magnetic: MagneticConfig::default(),
             online_step: OnlineStepConfig::default(),
             integrity: IntegrityConfig::default(),
+            adaptive_count: KldConfig::default(),
         }
     }
 }
@@ -480,6 +498,13 @@ impl TcpfConfig {
             ("hold_max_accuracy_m", self.hold_max_accuracy_m, 0.0, 1e6),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
             ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
+            ("start_accuracy_share", self.start_accuracy_share, 0.0, 10.0),
+            (
+                "start_accuracy_decay_s",
+                self.start_accuracy_decay_s,
+                0.1,
+                3600.0,
+            ),
             (
                 "converged_radio_scale",
                 self.converged_radio_scale,
@@ -544,6 +569,7 @@ impl TcpfConfig {
         self.magnetic.validate()?;
         self.online_step.validate()?;
         self.integrity.validate()?;
+        self.adaptive_count.validate("tcpf.adaptive_count")?;
         self.offset.validate()
     }
 

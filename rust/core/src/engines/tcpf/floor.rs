@@ -123,6 +123,7 @@ impl TcpfEngine {
         match snapped {
             Some(p) => {
                 self.floor = f;
+                self.set_init_count(false);
                 self.pf.init_at(p, 3.0, |q| m.is_walkable(q));
                 self.draw_offsets_from_belief();
                 self.recovery.monitor.reset();

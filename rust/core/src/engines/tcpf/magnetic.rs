@@ -45,7 +45,7 @@ impl TcpfEngine {
         let Some(grid) = model.magnetic().and_then(|m| m.grid(self.floor)) else {
             return;
         };
-        let mc = &self.cfg.magnetic;
+        let mc = self.cfg.magnetic.clone();
         let (nu, extra2) = (mc.nu, mc.extra_sd_ut * mc.extra_sd_ut);
         let mut log_l = std::mem::take(&mut self.scratch.log_l);
         log_l.clear();
@@ -71,7 +71,7 @@ impl TcpfEngine {
                 *l = weight * if l.is_nan() { fill } else { *l };
             }
             self.pf.weight_log(&log_l);
-            self.pf.resample_if_degenerate();
+            self.resample_if_degenerate();
             self.counts.magnetic_updates += 1;
             let innovation = (rsum / wsum - self.magnetic.offset_ut).clamp(-10.0, 10.0);
             self.magnetic.offset_ut = (self.magnetic.offset_ut + mc.offset_gain * innovation)

@@ -40,8 +40,9 @@
 //! global start and its cells), `offsets` (the phone's RSSI offset),
 //! `floor` (floor votes and changes), `motion` (steps, online step scale),
 //! `magnetic` (the magnetic update), `survey_reach` (the distance to the
-//! survey's walks), `publish` (the published pose),
-//! `counts` (diagnostics).
+//! survey's walks), `particle_count` (resampling, the adaptive count),
+//! `publish` (the published pose and its accuracy radius), `counts`
+//! (diagnostics).
 
 mod anchors;
 mod cells;
@@ -53,6 +54,7 @@ pub mod integrity;
 mod magnetic;
 mod motion;
 mod offsets;
+mod particle_count;
 mod publish;
 mod radio_update;
 mod recovery;

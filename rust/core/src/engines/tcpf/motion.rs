@@ -48,7 +48,7 @@ impl TcpfEngine {
                 self.counts.wall_killed += n as u64;
             }
         }
-        self.pf.resample_if_degenerate();
+        self.resample_if_degenerate();
         frac
     }
 

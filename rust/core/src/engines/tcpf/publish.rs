@@ -33,9 +33,28 @@ pub(super) struct Publisher {
     pub(super) cloud_accuracy_m: Option<f64>,
     /// The last radio update (the pose is `Fused` for a while after it).
     pub(super) last_radio_t_ns: Option<i64>,
+    /// The last global start: its time and its cloud's RMS spread, m
+    /// (`start_accuracy_share`); `None` after a told start.
+    pub(super) global_start: Option<(i64, f64)>,
 }
 
 impl TcpfEngine {
+    /// `r` widened by the memory of the last global start's width
+    /// (`start_accuracy_share`, `start_accuracy_decay_s`), in quadrature.
+    fn accuracy_with_start(&self, t_ns: i64, r: f64) -> f64 {
+        let (share, decay_s) = (
+            self.cfg.start_accuracy_share,
+            self.cfg.start_accuracy_decay_s,
+        );
+        match self.publisher.global_start {
+            Some((t0, spread_m)) if share > 0.0 => {
+                let age_s = ((t_ns - t0) as f64 / 1e9).max(0.0);
+                r.hypot(share * spread_m * (-age_s / decay_s).exp())
+            }
+            _ => r,
+        }
+    }
+
     /// The point to publish: the weighted mean, or the heaviest room's
     /// mean, or the heaviest particles, whichever the last published point
     /// reaches without crossing a wall; held up to `max_hold_runs`.
@@ -232,7 +251,10 @@ impl TcpfEngine {
             y_m: pos.y,
             floor: self.floor,
             heading_rad: self.publisher.heading_rad,
-            accuracy_m: self.accuracy_with_integrity(self.accuracy_with_survey(cloud_m)),
+            accuracy_m: self.accuracy_with_start(
+                t_ns,
+                self.accuracy_with_integrity(self.accuracy_with_survey(cloud_m)),
+            ),
             floor_prob,
             source,
         });

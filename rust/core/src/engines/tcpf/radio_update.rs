@@ -134,7 +134,7 @@ impl TcpfEngine {
         self.counts.radio_updates += 1;
         self.learn_offset(t_ns, meas, &cloud, per_particle);
         self.scratch.cloud = cloud;
-        self.pf.resample_if_degenerate();
+        self.resample_if_degenerate();
         // a radio the walk disagrees with re-seeds nothing (`integrity`),
         // nor one that misfits its model, unless the walls say clearly
         // that the cloud is lost: then the misfit is the cloud's, not the

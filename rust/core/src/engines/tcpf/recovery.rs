@@ -158,7 +158,7 @@ impl TcpfEngine {
                 self.integrity.refuse(pull * reseed);
                 self.counts.reseed_untrusted += 1;
             } else {
-                self.pf.resample();
+                self.resample_now();
                 let site = Arc::clone(&self.site);
                 let map = site.floor(floor);
                 let n =

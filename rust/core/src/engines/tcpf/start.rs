@@ -66,9 +66,11 @@ impl TcpfEngine {
             }
             _ => p,
         };
+        self.set_init_count(false);
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
         self.recovery.told_start = true;
+        self.publisher.global_start = None;
         self.integrity.restart(&self.cfg.integrity, true);
         self.online_step.drop_window();
         self.draw_offsets_from_belief();
@@ -193,6 +195,7 @@ impl TcpfEngine {
         self.votes.other_floor = None;
         let site = Arc::clone(&self.site);
         let map = site.floor(f);
+        self.set_init_count(true);
         self.pf
             .init_from_cells(&surf.cells, &surf.w, self.cfg.cell_m, |q| {
                 map.is_none_or(|m| m.is_walkable(q))
@@ -200,6 +203,7 @@ impl TcpfEngine {
         self.offset
             .phone
             .set(surf.offset_db, self.offset.phone.sd_db());
+        self.publisher.global_start = Some((t_ns, self.pf.spread_m()));
         self.draw_offsets_from_cells(&surf);
         self.summarise_offsets();
         self.recovery.monitor.reset();

@@ -81,6 +81,81 @@ fn learns_a_phone_offset_and_reports_it() {
     assert_eq!(fixed.stats.rssi_offset_db, Some(0.0));
 }
 
+/// After a global start the radius is widened by the start cloud's
+/// spread (`start_accuracy_share`), in quadrature, the widening decaying
+/// as exp(-t / `start_accuracy_decay_s`); the track is the same, and a
+/// told start has no such term.
+#[test]
+fn the_radius_remembers_a_wide_start_and_forgets_it() {
+    let ev = walk_north(30, None);
+    let on = EngineConfig::default();
+    let mut off = on.clone();
+    off.tcpf.start_accuracy_share = 0.0;
+    let (a, b) = (run(&ev, None, &on), run(&ev, None, &off));
+    assert_eq!(a.track.len(), b.track.len());
+    let decay_s = on.tcpf.start_accuracy_decay_s;
+    // (time s, widening m) of each pose: sqrt(with^2 - without^2)
+    let mut widening = Vec::new();
+    for (p, q) in a.track.iter().zip(&b.track) {
+        assert_eq!((p.t_ns, p.x_m, p.y_m), (q.t_ns, q.x_m, q.y_m));
+        assert!(p.accuracy_m >= q.accuracy_m);
+        let w = (p.accuracy_m.powi(2) - q.accuracy_m.powi(2))
+            .max(0.0)
+            .sqrt();
+        widening.push((p.t_ns as f64 / 1e9, w));
+    }
+    let (t0, w0) = widening[0];
+    assert!(w0 > 0.3, "widening at the first pose {w0:.3} m");
+    for &(t, w) in &widening[1..] {
+        let expected = w0 * (-(t - t0) / decay_s).exp();
+        assert!(
+            (w - expected).abs() <= 1e-6 * (1.0 + w0),
+            "{w:.6} m at {:.1} s after the first pose, expected {expected:.6}",
+            t - t0
+        );
+    }
+    // a tap says where: nothing to remember
+    let (a, b) = (
+        run(&ev, Some(BEHIND_THE_WALL), &on),
+        run(&ev, Some(BEHIND_THE_WALL), &off),
+    );
+    assert!(
+        a.track
+            .iter()
+            .zip(&b.track)
+            .all(|(p, q)| p.accuracy_m == q.accuracy_m)
+    );
+}
+
+/// With `adaptive_count` on, the global start spreads `max_particles`
+/// over the floor and the count falls once the cloud has converged; the
+/// same seed gives the same track.
+#[test]
+fn the_adaptive_count_is_large_at_a_global_start_and_small_once_converged() {
+    let ev = walk_north(30, None);
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.adaptive_count.max_particles = 4000;
+    cfg.tcpf.adaptive_count.min_particles = 300;
+    let t0 = ev[0].t_ns();
+    // the count after each second of the walk (a fresh engine per prefix:
+    // the replay is deterministic)
+    let counts: Vec<usize> = (1..=30)
+        .map(|k| {
+            let mut e = TcpfEngine::new(site(), &cfg, None).unwrap();
+            let prefix = ev.iter().filter(|x| x.t_ns() <= t0 + k * 1_000_000_000);
+            replay(&mut e, prefix.cloned());
+            e.pf.particles().len()
+        })
+        .collect();
+    assert_eq!(counts.iter().max(), Some(&4000), "{counts:?}");
+    let last = *counts.last().unwrap();
+    assert!((300..1000).contains(&last), "{counts:?}");
+    let a = run(&ev, None, &cfg);
+    let b = run(&ev, None, &cfg);
+    assert_eq!(a.track, b.track);
+    assert!(mean_error(&a) < 3.0, "{:.2} m", mean_error(&a));
+}
+
 #[test]
 fn recovers_from_a_wrong_start_in_the_other_room() {
     // told it starts behind the wall at (15, 33): radio says x = 7, y from
@@ -202,6 +277,17 @@ fn config_errors_name_the_field() {
     let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
     assert!(
         e.to_string().contains("tcpf.anchors.far_survey_sigma_m"),
+        "{e}"
+    );
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.start_accuracy_decay_s = 0.0;
+    let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
+    assert!(e.to_string().contains("tcpf.start_accuracy_decay_s"), "{e}");
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.adaptive_count.max_particles = 200;
+    let e = build_engine("tcpf", site(), &cfg, None).err().unwrap();
+    assert!(
+        e.to_string().contains("tcpf.adaptive_count.max_particles"),
         "{e}"
     );
 }

@@ -6,7 +6,7 @@
 //! cloud (a global start over a floor) occupies many bins and gets many
 //! particles, a converged one few.
 
-use std::collections::HashMap;
+use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
@@ -110,11 +110,12 @@ pub fn expected_occupied_bins(
     bin_m: f64,
     draws: usize,
 ) -> f64 {
-    let mut mass: HashMap<(i64, i64), f64> = HashMap::with_capacity(positions.len() / 4);
     let total: f64 = weights.iter().filter(|w| w.is_finite()).sum();
     if total.is_nan() || total <= 0.0 {
         return 0.0;
     }
+    // ordered by key: the sum below is the same whatever the insertion order
+    let mut mass: BTreeMap<(i64, i64), f64> = BTreeMap::new();
     for (p, w) in positions.iter().zip(weights) {
         if !(p.x.is_finite() && p.y.is_finite() && w.is_finite()) || *w <= 0.0 {
             continue;
@@ -123,10 +124,7 @@ pub fn expected_occupied_bins(
         *mass.entry(key).or_insert(0.0) += w / total;
     }
     let d = draws as f64;
-    // summed in key order: the same total whatever the map's iteration order
-    let mut bins: Vec<_> = mass.into_iter().collect();
-    bins.sort_unstable_by_key(|(k, _)| *k);
-    bins.iter().map(|(_, p)| 1.0 - (-d * p).exp()).sum()
+    mass.values().map(|p| 1.0 - (-d * p).exp()).sum()
 }
 
 #[cfg(test)]

@@ -129,6 +129,21 @@ pub fn build(
             );
         }
     }
+    for (kind, fit) in [("BLE", &s.ble_wall_prior), ("WiFi", &s.wifi_wall_prior)] {
+        if let Some(f) = fit {
+            println!(
+                "wall prior {kind}: {:.2} dB per wall, {:.2} dB per door; {} transmitters refitted \
+                 on {} bins; RMS residual of the bins {:.2} dB from the site's path-loss models, \
+                 {:.2} dB from the prior (in-sample)",
+                f.loss.wall_db,
+                f.loss.door_db,
+                f.transmitters,
+                f.bins,
+                f.rms_site_db,
+                f.rms_prior_db
+            );
+        }
+    }
     if !check_logs.is_empty() {
         let held: Vec<&[LogEvent]> = check_logs.iter().map(Vec::as_slice).collect();
         let rep = check_calibration(&map, &footprint, &held, &opts, &DEFAULT_EDGES_M);

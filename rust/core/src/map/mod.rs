@@ -5,6 +5,7 @@
 //! [i, i+1) x [j, j+1)); MCS is metres (x right, y up, origin at the image's
 //! bottom-left): x = x_I / r, y = (H - y_I) / r (eq. 23).
 
+mod crossings;
 mod downsample;
 mod grid;
 mod normals;
@@ -13,6 +14,7 @@ mod raycast;
 mod rooms;
 mod walk;
 
+pub use crossings::Crossings;
 pub use plan::{ClassifiedPlan, Legend, classify_png};
 pub use raycast::crosses_wall_sampled;
 pub use rooms::{Room, RoomId};

@@ -190,6 +190,7 @@ impl MagneticMapBuilder {
             sd_growth_per_m: c.sd_growth_ut_per_m,
             max_cells_per_grid: c.max_cells_per_grid,
             sd_at: None,
+            base_at: None,
         };
         let mut grids = Vec::new();
         let mut cells = 0usize;

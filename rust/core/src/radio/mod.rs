@@ -24,6 +24,9 @@
 //! - [`reference_scans`]: the survey walks' scan vectors (fingerprints)
 //!   and their k-nearest-neighbour query, carried in the radio map file;
 //!   `tcpf` anchors its start and re-seeding on them.
+//! - [`wall_prior`]: a multi-wall path-loss prior fitted on the survey
+//!   (walls counted on the floor plan) under the radio map, where the
+//!   survey never went.
 
 pub mod fast_ln;
 pub mod likelihood;
@@ -40,6 +43,7 @@ pub mod reference_scans;
 pub mod survey;
 pub mod survey_track;
 pub mod walk_offsets;
+pub mod wall_prior;
 pub mod window;
 
 pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};

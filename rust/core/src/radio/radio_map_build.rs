@@ -32,10 +32,12 @@ pub use super::radio_map_config::RadioMapConfig;
 use super::radio_map_spread::{SpreadCurve, SpreadFit, WalkFootprint};
 use super::reference_scans::{ReferenceScanBuilder, ReferenceScanConfig};
 use super::survey::{RadioSample, SurveyCounts, survey_samples};
+use super::wall_prior::{PriorBin, WallFit, WallLoss, WallPriorConfig};
 use crate::Vec2;
-use crate::ble::pathloss::PathLoss;
+use crate::ble::pathloss::{PathLoss, range_m};
 use crate::bounds::{MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_TRANSMITTERS};
 use crate::events::LogEvent;
+use crate::map::FloorMap;
 use crate::site::Site;
 use crate::{Error, Result};
 
@@ -104,6 +106,9 @@ pub struct BuildSummary {
     /// With `spread_calibration`: what leaving one walk out found per kind.
     pub ble_spread: Option<SpreadFit>,
     pub wifi_spread: Option<SpreadFit>,
+    /// With `wall_prior.enabled`: the wall prior's fit per kind.
+    pub ble_wall_prior: Option<WallFit>,
+    pub wifi_wall_prior: Option<WallFit>,
 }
 
 impl BuildSummary {
@@ -306,6 +311,11 @@ impl<'a> RadioMapBuilder<'a> {
                 }
             }
         }
+        let priors = if cfg.wall_prior.enabled {
+            fit_wall_priors(site, &ids, &acc, &site_model, &cfg, &mut summary)
+        } else {
+            BTreeMap::new()
+        };
         let mut tx = Vec::new();
         let mut entries = Vec::new();
         let mut reports = Vec::new();
@@ -357,9 +367,20 @@ impl<'a> RadioMapBuilder<'a> {
                     TxKind::Wifi => curves[1],
                 }
                 .zip(footprint.as_ref());
+                let prior = priors.get(i).and_then(|(model, loss)| {
+                    Some(TxPrior {
+                        t: &fb_t,
+                        map: site.floor(fb_t.floor)?,
+                        model: *model,
+                        loss: *loss,
+                        cfg: &cfg.wall_prior,
+                        min_range_m: cfg.fallback.min_range_m,
+                    })
+                });
                 let mut grids = Vec::new();
                 for (floor, bins) in &a.bins {
-                    if let Some(g) = build_grid(*floor, bins, &cfg, &fb, curve)? {
+                    let prior = prior.as_ref().filter(|p| p.t.floor == *floor);
+                    if let Some(g) = build_grid(*floor, bins, &cfg, &fb, curve, prior)? {
                         summary.cells += g.nx * g.ny;
                         if summary.cells > MAX_RADIO_MAP_CELLS {
                             return Err(Error::Input(format!(
@@ -581,6 +602,78 @@ impl Fallback<'_> {
     }
 }
 
+/// The wall prior of one transmitter on its own floor.
+pub(super) struct TxPrior<'a> {
+    t: &'a Transmitter,
+    map: &'a FloorMap,
+    model: PathLoss,
+    loss: WallLoss,
+    cfg: &'a WallPriorConfig,
+    min_range_m: f64,
+}
+
+impl TxPrior<'_> {
+    /// The prior's mean at `p`, dBm.
+    fn at(&self, p: Vec2) -> f64 {
+        let d = range_m(p, self.t.pos, self.t.dz_m, self.min_range_m);
+        let c = self.cfg.counted(self.map.crossings(self.t.pos, p));
+        super::wall_prior::mean(&self.model, &self.loss, 10.0 * d.log10(), c)
+    }
+}
+
+/// Fits the wall prior of each radio kind on the survey's bins of every
+/// transmitter the site has a position for (its own floor); the refitted
+/// model and the kind's losses by transmitter (index into `acc`).
+fn fit_wall_priors(
+    site: &Site,
+    ids: &BTreeMap<(TxKind, String), usize>,
+    acc: &[TxAcc],
+    site_model: &PathLossModel,
+    cfg: &RadioMapConfig,
+    summary: &mut BuildSummary,
+) -> BTreeMap<usize, (PathLoss, WallLoss)> {
+    let wp = &cfg.wall_prior;
+    let mut out = BTreeMap::new();
+    for kind in [TxKind::Ble, TxKind::Wifi] {
+        let mut which = Vec::new();
+        let mut txs = Vec::new();
+        for ((k, id), i) in ids {
+            let t = site_model
+                .lookup(*k, id)
+                .and_then(|j| site_model.transmitters().get(j));
+            let (Some(t), true) = (t, *k == kind) else {
+                continue;
+            };
+            let (Some(map), Some(bins)) = (site.floor(t.floor), acc[*i].bins.get(&t.floor)) else {
+                continue;
+            };
+            let bins: Vec<PriorBin> = bins
+                .values()
+                .filter(|b| b.n > 0.0)
+                .map(|b| {
+                    let pos = b.pos_sum / b.n;
+                    let d = range_m(pos, t.pos, t.dz_m, cfg.fallback.min_range_m);
+                    PriorBin::new(b.sum / b.n, b.n, d, wp.counted(map.crossings(t.pos, pos)))
+                })
+                .collect();
+            which.push(*i);
+            txs.push((t.model, bins));
+        }
+        if txs.is_empty() {
+            continue;
+        }
+        let (models, fit) = super::wall_prior::fit(&txs, wp);
+        for (i, m) in which.into_iter().zip(models) {
+            out.insert(i, (m, fit.loss));
+        }
+        match kind {
+            TxKind::Ble => summary.ble_wall_prior = Some(fit),
+            TxKind::Wifi => summary.wifi_wall_prior = Some(fit),
+        }
+    }
+    out
+}
+
 /// A bin reduced to what smoothing needs.
 pub(super) struct BinStat {
     pub pos: Vec2,
@@ -616,6 +709,11 @@ pub(super) struct SmoothParams<'a> {
     /// The calibrated spread at a cell centre, replacing the smoothed one
     /// (`RadioMapConfig::spread_calibration`).
     pub sd_at: Option<&'a dyn Fn(Vec2) -> f64>,
+    /// A prior mean under the values (the wall prior): the bins' sums
+    /// are residuals from it, it is added back to every cell, and the
+    /// cells beyond `max_distance_m` of every bin hold it (with the
+    /// fallback's spread) instead of nothing.
+    pub base_at: Option<&'a dyn Fn(Vec2) -> f64>,
 }
 
 /// The grid of one transmitter on `floor` from its bins; `None` when no
@@ -626,11 +724,26 @@ fn build_grid(
     cfg: &RadioMapConfig,
     fb: &Fallback<'_>,
     sd_curve: Option<(SpreadCurve, &WalkFootprint)>,
+    prior: Option<&TxPrior<'_>>,
 ) -> Result<Option<Grid>> {
     let stats: Vec<BinStat> = bins
         .values()
         .filter(|b| b.n > 0.0)
-        .map(|b| BinStat::of(b.n, b.sum, b.sum2, b.pos_sum))
+        .map(|b| {
+            let s = BinStat::of(b.n, b.sum, b.sum2, b.pos_sum);
+            match prior {
+                // residuals r - pi: sum - n pi, sum2 - 2 pi sum + n pi^2
+                Some(pr) => {
+                    let pi = pr.at(s.pos);
+                    BinStat {
+                        sum: s.sum - s.n * pi,
+                        sum2: s.sum2 - 2.0 * pi * s.sum + s.n * pi * pi,
+                        ..s
+                    }
+                }
+                None => s,
+            }
+        })
         .collect();
     let p = SmoothParams {
         cell_m: cfg.cell_m,
@@ -642,13 +755,16 @@ fn build_grid(
         sd_growth_per_m: cfg.sd_growth_db_per_m,
         max_cells_per_grid: cfg.max_cells_per_grid,
         sd_at: None,
+        base_at: None,
     };
+    let base_at = |c: Vec2| prior.map_or(0.0, |pr| pr.at(c));
     let sd_at = |c: Vec2| match sd_curve {
         Some((curve, fp)) => curve.at(fp.distance(floor, c, None).min(cfg.max_distance_m)),
         None => 0.0,
     };
     let p = SmoothParams {
         sd_at: sd_curve.is_some().then_some(&sd_at as &dyn Fn(Vec2) -> f64),
+        base_at: prior.is_some().then_some(&base_at as &dyn Fn(Vec2) -> f64),
         ..p
     };
     smooth_grid(floor, &stats, &p, &|c| fb.at(floor, c))
@@ -721,10 +837,17 @@ pub(super) fn smooth_grid(
                 }
             }
             let dmin = dmin.sqrt();
+            let base = p.base_at.map_or(0.0, |f| f(c));
             if dmin > margin {
+                if p.base_at.is_some() {
+                    let k = j * nx + i;
+                    mean[k] = x10(base);
+                    sd[k] = x10(fallback(c).1).max(1);
+                }
                 continue;
             }
             let (mu_fb, sd_fb) = fallback(c);
+            let mu_fb = if p.base_at.is_some() { 0.0 } else { mu_fb };
             let (m, v) = if sw > 1e-12 {
                 let m = s1 / sw;
                 (m, (s2 / sw - m * m).max(p.min_sd * p.min_sd))
@@ -732,7 +855,7 @@ pub(super) fn smooth_grid(
                 (mu_fb, sd_fb * sd_fb)
             };
             let lambda = if sw + w0 > 0.0 { sw / (sw + w0) } else { 1.0 };
-            let mu = lambda * m + (1.0 - lambda) * mu_fb;
+            let mu = lambda * m + (1.0 - lambda) * mu_fb + base;
             let s = match p.sd_at {
                 Some(f) => f(c),
                 None => {

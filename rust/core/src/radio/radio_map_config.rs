@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use super::magnetic_map::MagneticMapConfig;
 use super::radio_map::FallbackParams;
 use super::survey::SurveyOptions;
+use super::wall_prior::WallPriorConfig;
 use crate::Result;
 use crate::bounds::{MAX_RADIO_MAP_GRID_CELLS, check_count};
 
@@ -74,6 +75,8 @@ pub struct RadioMapConfig {
     /// Default false (docs/tcpf.md "Radio map spread calibration").
     pub spread_calibration: bool,
     pub fallback: FallbackParams,
+    /// The multi-wall prior under the map ([`super::wall_prior`]).
+    pub wall_prior: WallPriorConfig,
     /// The magnetic field's map from the same walks
     /// ([`super::magnetic_map`]).
     pub magnetic: MagneticMapConfig,
@@ -105,6 +108,7 @@ impl Default for RadioMapConfig {
             site_transmitters_only: true,
             spread_calibration: false,
             fallback: FallbackParams::default(),
+            wall_prior: WallPriorConfig::default(),
             magnetic: MagneticMapConfig::default(),
         }
     }
@@ -201,6 +205,7 @@ impl RadioMapConfig {
             -10.0,
             10.0,
         )?;
+        self.wall_prior.validate(&format!("{p}.wall_prior"))?;
         self.fallback.validate(&format!("{p}.fallback"))
     }
 }

@@ -320,6 +320,11 @@ fn bad_configs_name_the_field() {
         ..RadioMapConfig::default()
     };
     assert!(cfg.validate().is_err());
+    let cfg: RadioMapConfig =
+        serde_json::from_str(r#"{"wall_prior": {"enabled": true, "min_bins": 1}}"#).unwrap();
+    let e = cfg.validate().unwrap_err().to_string();
+    assert!(e.contains("radio_map.wall_prior.min_bins"), "{e}");
+    assert!(serde_json::from_str::<RadioMapConfig>(r#"{"wall_prior": {"walls": 3}}"#).is_err());
 }
 
 /// `tcpf` with a radio map alone (the site has no beacon entries) tracks
@@ -614,4 +619,106 @@ fn a_survey_walks_own_offset_is_removed_before_smoothing() {
     let last = (&plain[n - 1].tx[0], &shifted[n - 1].tx[0]);
     assert_eq!(last.0.1 - last.1.1, 80, "walk 2's last scan 8 dB lower");
     assert_eq!(plain[0].tx, shifted[0].tx, "walk 0 unchanged");
+}
+
+/// A 60 x 30 m floor split by a wall along x = 30 m (one pixel wide).
+fn walled_site() -> Arc<Site> {
+    use crate::map::{Feature, FloorMap};
+    let (w, h) = (60, 30);
+    let features = (0..w * h)
+        .map(|k| {
+            if k % w == 30 {
+                Feature::Wall
+            } else {
+                Feature::Walkable
+            }
+        })
+        .collect();
+    let model = crate::ble::pathloss::PathLoss {
+        rssi_1m_dbm: -55.0,
+        exponent: 2.0,
+    };
+    beacon_site(
+        "walls",
+        vec![FloorMap::from_features(w, h, 1.0, features)],
+        &[(15.0, 15.0)],
+        model,
+    )
+}
+
+/// The walled site's field: the site's model less 6 dB behind the wall.
+fn walled_mean(p: Vec2) -> f64 {
+    let d = (p - Vec2::new(15.0, 15.0)).norm().max(0.5);
+    -55.0 - 20.0 * d.log10() - if p.x > 30.5 { 6.0 } else { 0.0 }
+}
+
+#[test]
+fn the_wall_prior_counts_the_walls_where_the_survey_never_went() {
+    let site = walled_site();
+    let west = |w| {
+        survey_walk(
+            w,
+            &zigzag(&[6.0, 12.0, 18.0, 24.0])
+                .iter()
+                .map(|p| Vec2::new(p.x * 0.75, p.y))
+                .collect::<Vec<_>>(),
+            1,
+            &|_, _, p| Some(walled_mean(p)),
+        )
+    };
+    let east = |w| {
+        let line = [
+            Vec2::new(32.0, 6.0),
+            Vec2::new(38.0, 6.0),
+            Vec2::new(38.0, 12.0),
+            Vec2::new(32.0, 12.0),
+        ];
+        survey_walk(w, &line, 1, &|_, _, p| Some(walled_mean(p)))
+    };
+    let logs = vec![west(0), west(1), east(2), east(3)];
+    let cfg = RadioMapConfig {
+        max_distance_m: 4.0,
+        ..RadioMapConfig::default()
+    };
+    let on = RadioMapConfig {
+        wall_prior: crate::radio::wall_prior::WallPriorConfig {
+            enabled: true,
+            ..Default::default()
+        },
+        ..cfg.clone()
+    };
+    let mut b = RadioMapBuilder::new(&site, &on).unwrap();
+    for l in &logs {
+        b.add_log(l);
+    }
+    let (with, _, summary) = b.finish().unwrap();
+    let fit = summary.ble_wall_prior.expect("fitted");
+    assert!((fit.loss.wall_db - 6.0).abs() < 1.0, "{fit:?}");
+    assert!(summary.wifi_wall_prior.is_none());
+    let (without, _) = build(&site, &logs, &cfg);
+    let i = with.lookup(TxKind::Ble, &id(0)).unwrap();
+    // behind the wall, 10 m from the survey: the prior counts the wall,
+    // the path-loss fallback does not
+    let p = Vec2::new(41.0, 22.0);
+    let (mu_with, sd_with) = with.expected(i, 0, p).unwrap();
+    let (mu_without, sd_without) = without.expected(i, 0, p).unwrap();
+    assert!(
+        (mu_with - walled_mean(p)).abs() < 1.0,
+        "{mu_with:.1} vs {:.1}",
+        walled_mean(p)
+    );
+    assert!(
+        (mu_without - walled_mean(p) - 6.0).abs() < 1e-6,
+        "{mu_without:.1}"
+    );
+    assert_eq!(sd_with, sd_without);
+    // on the survey both follow the readings
+    for p in [Vec2::new(10.0, 12.0), Vec2::new(35.0, 6.0)] {
+        let a = with.expected(i, 0, p).unwrap().0;
+        let b = without.expected(i, 0, p).unwrap().0;
+        assert!(
+            (a - walled_mean(p)).abs() < 1.5 && (b - walled_mean(p)).abs() < 1.5,
+            "{p:?}: {a:.1} {b:.1}"
+        );
+    }
 }

@@ -14,7 +14,9 @@
 //!    by `search_margin_m`, then a pattern search down to 0.1 m; at each
 //!    candidate position R0 and n come from a Huber-weighted (IRLS) line fit
 //!    of RSSI against log10(range), n clamped to [min_exponent, max_exponent];
-//!    the cost is the Huber loss of the residuals.
+//!    the cost is the Huber loss of the residuals (plus, with
+//!    `exponent_prior_bins`, a Gaussian prior on n: 0.5 W (n - n0)^2, which
+//!    the line fit takes as a ridge on the slope).
 //! 5. Rejections, in this order: fitted n at a bound (no real distance
 //!    dependence), R0 >= 0 dBm (no site file takes it), correlation of RSSI with log10(range) above
 //!    `max_correlation`, robust residual spread (1.4826 MAD) above
@@ -167,7 +169,13 @@ fn fit_model(xs: &[f64], ys: &[f64], cfg: &CalibrationConfig) -> (f64, f64, f64)
             .zip(&w)
             .map(|((x, y), w)| w * (x - mx) * (y - my))
             .sum();
-        let slope = if sxx > 1e-12 { sxy / sxx } else { 0.0 };
+        // the prior on n as lambda (s - s0)^2 on the slope s = -10 n
+        let (lambda, s0) = (cfg.exponent_prior_bins / 100.0, -10.0 * cfg.exponent_prior);
+        let slope = if sxx + lambda > 1e-12 {
+            (sxy + lambda * s0) / (sxx + lambda)
+        } else {
+            0.0
+        };
         n = (-slope / 10.0).clamp(cfg.min_exponent, cfg.max_exponent);
         r0 = my + 10.0 * n * mx;
         for ((x, y), wi) in xs.iter().zip(ys).zip(w.iter_mut()) {
@@ -180,18 +188,19 @@ fn fit_model(xs: &[f64], ys: &[f64], cfg: &CalibrationConfig) -> (f64, f64, f64)
         }
     }
     let k = cfg.huber_k_dbm;
-    let cost = xs
-        .iter()
-        .zip(ys)
-        .map(|(x, y)| {
-            let r = (y - (r0 - 10.0 * n * x)).abs();
-            if r <= k {
-                0.5 * r * r
-            } else {
-                k * (r - 0.5 * k)
-            }
-        })
-        .sum();
+    let prior = 0.5 * cfg.exponent_prior_bins * (n - cfg.exponent_prior).powi(2);
+    let cost = prior
+        + xs.iter()
+            .zip(ys)
+            .map(|(x, y)| {
+                let r = (y - (r0 - 10.0 * n * x)).abs();
+                if r <= k {
+                    0.5 * r * r
+                } else {
+                    k * (r - 0.5 * k)
+                }
+            })
+            .sum::<f64>();
     (r0, n, cost)
 }
 
@@ -757,6 +766,65 @@ mod tests {
         }
         assert_eq!(summary.accepted, 3);
         assert_eq!(summary.paths, 6);
+    }
+
+    /// A transmitter 11 m beyond the surveyed strip, heard only from 20 m
+    /// and more through 5 dB noise and a -90 dBm sensitivity: the range of
+    /// log-distances is narrow, so the fit trades distance against the
+    /// curve's slope; the prior on n brings both nearer the truth.
+    #[test]
+    fn the_exponent_prior_keeps_a_transmitter_heard_from_afar_where_it_is() {
+        let pos = Vec2::new(25.0, 30.0);
+        let m = PathLoss {
+            rssi_1m_dbm: -42.0,
+            exponent: 2.6,
+        };
+        let mut rng = Pcg64::seed_from_u64(11);
+        let (mut paths, _) = survey(7);
+        paths.truncate(3);
+        for p in &mut paths {
+            let truth = p.truth.clone();
+            let (t0, t1) = (truth[0].t_ns, truth[truth.len() - 1].t_ns);
+            let mut t = t0;
+            while t <= t1 {
+                let (q, _) = interpolate(&truth, t, i64::MAX).unwrap();
+                let r = m.rssi_at((q - pos).norm(), 0.5) + 5.0 * gauss(&mut rng);
+                if r > -90.0 {
+                    p.observations.push(BleObservation {
+                        t_ns: t,
+                        beacon_id: "mac:00:00:00:00:00:0F".into(),
+                        rssi_dbm: r,
+                        tx_power_dbm: None,
+                    });
+                }
+                t += 200_000_000;
+            }
+            p.observations.sort_by_key(|o| o.t_ns);
+        }
+        let fit = |w: f64| {
+            let mut cfg = BleConfig::default();
+            cfg.calibration.exponent_prior_bins = w;
+            cfg.calibration.search_margin_m = 30.0;
+            let (reports, _) = calibrate(&paths, &cfg).unwrap();
+            let r = reports
+                .iter()
+                .find(|r| r.id == "mac:00:00:00:00:00:0F")
+                .unwrap()
+                .clone();
+            let p = Vec2::new(r.x_m.unwrap(), r.y_m.unwrap());
+            eprintln!(
+                "W {w}: {p:?} n {:?} r0 {:?} {:?}",
+                r.path_loss_exponent, r.rssi_1m_dbm, r.rejected
+            );
+            ((p - pos).norm(), r.path_loss_exponent.unwrap())
+        };
+        let (e0, n0) = fit(0.0);
+        let (e1, n1) = fit(50.0);
+        assert!(e1 < 0.5 * e0, "{e1:.1} m vs {e0:.1} m without the prior");
+        assert!(
+            (n1 - m.exponent).abs() < (n0 - m.exponent).abs(),
+            "n {n1} vs {n0}"
+        );
     }
 
     #[test]

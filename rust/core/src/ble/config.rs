@@ -255,6 +255,14 @@ pub struct CalibrationConfig {
     pub coarse_step_m: f64,
     /// Huber threshold of the robust path-loss fit, dBm. Default 4.
     pub huber_k_dbm: f64,
+    /// The path-loss exponent the fit leans towards (a Gaussian prior on
+    /// n). Default 2.5.
+    pub exponent_prior: f64,
+    /// Strength of that prior: n one away from `exponent_prior` costs as
+    /// much as this many bins 1 dB off (0: no prior). It keeps a
+    /// transmitter heard only from afar from being fitted near the survey
+    /// with a flat curve. Default 0.
+    pub exponent_prior_bins: f64,
 }
 
 impl Default for CalibrationConfig {
@@ -273,6 +281,8 @@ impl Default for CalibrationConfig {
             search_margin_m: 10.0,
             coarse_step_m: 2.0,
             huber_k_dbm: 4.0,
+            exponent_prior: 2.5,
+            exponent_prior_bins: 0.0,
         }
     }
 }
@@ -392,6 +402,18 @@ impl CalibrationConfig {
             self.max_path_excess_dbm,
         )?;
         non_negative("ble.calibration.search_margin_m", self.search_margin_m)?;
+        crate::bounds::check_range(
+            "ble.calibration.exponent_prior",
+            self.exponent_prior,
+            self.min_exponent,
+            self.max_exponent,
+        )?;
+        crate::bounds::check_range(
+            "ble.calibration.exponent_prior_bins",
+            self.exponent_prior_bins,
+            0.0,
+            1e9,
+        )?;
         crate::bounds::check_grid_step("ble.calibration.coarse_step_m", self.coarse_step_m)?;
         crate::bounds::check_range(
             "ble.calibration.search_margin_m",
@@ -424,5 +446,14 @@ mod tests {
         assert!(e.contains("ble.gml.top_n"), "{e}");
         let e = serde_json::from_str::<BleConfig>(r#"{"gml":{"topn":3}}"#).unwrap_err();
         assert!(e.to_string().contains("topn"));
+        for (field, v) in [("exponent_prior", 0.5), ("exponent_prior_bins", -1.0)] {
+            let mut c = BleConfig::default();
+            match field {
+                "exponent_prior" => c.calibration.exponent_prior = v,
+                _ => c.calibration.exponent_prior_bins = v,
+            }
+            let e = c.validate().unwrap_err().to_string();
+            assert!(e.contains(&format!("ble.calibration.{field}")), "{e}");
+        }
     }
 }

@@ -19,6 +19,12 @@
 //!   `sd_growth_db_per_m`, clamped to [`min_sd_db`, `max_sd_db`];
 //! - nothing (the fallback) beyond `max_distance_m` from every bin.
 //!
+//! With `wall_prior.enabled` ([`super::wall_prior`]) the fallback mean of
+//! a transmitter the site places is the multi-wall prior fitted on the
+//! survey: the bins are smoothed as residuals from it (`mu_fb` = 0 above,
+//! the prior added back), and the cells beyond `max_distance_m` hold the
+//! prior with the fallback's spread.
+//!
 //! Pure: logs in as events, the map out as a struct.
 
 use std::collections::{BTreeMap, BTreeSet};

@@ -26,7 +26,9 @@
 # eval prints, per variant, the mean error over the pooled points of every
 # group (mean of the per-seed means), coverage and the per-seed means.
 # Outputs: out/coverage/SET/{A,B}-GROUP/ (sites, maps) and
-# out/coverage/SET-eval/NAME/{A,B}-GROUP/ (fpbp eval folders).
+# out/coverage/SET-eval/NAME/{A,B}-GROUP/ (fpbp eval folders); SET-VARIANT
+# with FOLDS_VARIANT (scripts/lib/folds.sh: folds built with other
+# calibrate settings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib/folds.sh
@@ -40,7 +42,7 @@ ipin) groups=(01 02 03 04 21 22 23 24 25 26) ;;
 *) echo "$usage" >&2 && exit 2 ;;
 esac
 N=${#ALL[@]}
-root=out/coverage/$set_
+root=out/coverage/$set_$VARIANT
 
 # test and training logs of variant V (A or B) of group G, one per line, into DIR
 split_logs() {
@@ -85,7 +87,7 @@ if [ "$mode" = build ]; then
     exit 0
 fi
 eval_args "$@"
-out=out/coverage/$set_-eval/$name
+out=out/coverage/$set_$VARIANT-eval/$name
 mkdir -p "$out"
 for V in A B; do
     for G in "${groups[@]}"; do

@@ -28,7 +28,9 @@
 # model). eval prints the mean error over the pooled points of the folds (mean of
 # the per-seed means; IPIN: A and B folds apart), coverage, p80 and the
 # share of points within the accuracy radius.
-# Outputs: out/folds/SET/FOLD/ (sites, maps) and out/folds/SET-eval/NAME/.
+# Outputs: out/folds/SET/FOLD/ (sites, maps) and out/folds/SET-eval/NAME/;
+# SET-VARIANT with FOLDS_VARIANT (scripts/lib/folds.sh: folds built with
+# other calibrate settings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib/folds.sh
@@ -49,7 +51,7 @@ ipin)
     ;;
 esac
 N=${#ALL[@]}
-root=out/folds/$set_
+root=out/folds/$set_$VARIANT
 
 # test and survey logs of fold G, one per line, into DIR
 split_logs() {
@@ -83,7 +85,7 @@ if [ "$mode" = build ]; then
     exit 0
 fi
 eval_args "$@"
-out=out/folds/$set_-eval/$name
+out=out/folds/$set_$VARIANT-eval/$name
 mkdir -p "$out"
 for G in "${folds[@]}"; do
     eval_fold "$root/$G" "$out/$G" "$engine" "$seeds" "${floor[@]}" "${extra[@]}"

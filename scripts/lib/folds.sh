@@ -4,6 +4,13 @@
 # logs are scored with that site and radio map.
 F=${FPBP:-target/release/fpbp}
 D=${FPBP_DATASETS:-../shared/datasets}
+# A variant of the folds: FOLDS_VARIANT=NAME keeps its sites, maps and
+# evals in folders suffixed -NAME beside the default ones, built with the
+# extra `fpbp calibrate` arguments CALIBRATE_ARGS (split on spaces), e.g.
+#   FOLDS_VARIANT=wall CALIBRATE_ARGS="--radio-map-config wall.json" \
+#     scripts/survey-coverage.sh build f1
+VARIANT=${FOLDS_VARIANT:+-$FOLDS_VARIANT}
+read -r -a CALIBRATE_EXTRA <<<"${CALIBRATE_ARGS:-}"
 
 # The sorted logs of a shared set into the array ALL and its imported
 # site.json into $site: f1, f4 or ipin.
@@ -51,7 +58,7 @@ calibrate_fold() {
     shift
     local -a train
     mapfile -t train <"$dir/train.txt"
-    "$F" calibrate --site "$site" --logs "${train[@]}" --split all --wifi "$@" \
+    "$F" calibrate --site "$site" --logs "${train[@]}" --split all --wifi "$@" "${CALIBRATE_EXTRA[@]}" \
         --out "$dir/site-wifi.json" --radio-map "$dir/radio-map.json" >"$dir/calib.txt" 2>&1 ||
         { echo "calibrate failed: $dir/calib.txt" >&2; exit 1; }
     echo "$(basename "$dir"): ${#train[@]} survey logs, $(wc -l <"$dir/test.txt") test logs"

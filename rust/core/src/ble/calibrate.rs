@@ -158,6 +158,8 @@ struct Fit {
 fn fit_model(xs: &[f64], ys: &[f64], cfg: &CalibrationConfig) -> (f64, f64, f64) {
     let mut w = vec![1.0; xs.len()];
     let (mut r0, mut n) = (-60.0, 2.0);
+    // the prior on n as lambda (s - s0)^2 on the slope s = -10 n
+    let (lambda, s0) = (cfg.exponent_prior_bins / 100.0, -10.0 * cfg.exponent_prior);
     for _ in 0..4 {
         let sw: f64 = w.iter().sum();
         let mx = xs.iter().zip(&w).map(|(x, w)| x * w).sum::<f64>() / sw;
@@ -169,8 +171,6 @@ fn fit_model(xs: &[f64], ys: &[f64], cfg: &CalibrationConfig) -> (f64, f64, f64)
             .zip(&w)
             .map(|((x, y), w)| w * (x - mx) * (y - my))
             .sum();
-        // the prior on n as lambda (s - s0)^2 on the slope s = -10 n
-        let (lambda, s0) = (cfg.exponent_prior_bins / 100.0, -10.0 * cfg.exponent_prior);
         let slope = if sxx + lambda > 1e-12 {
             (sxy + lambda * s0) / (sxx + lambda)
         } else {

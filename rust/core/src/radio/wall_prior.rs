@@ -156,7 +156,7 @@ pub fn fit(txs: &[(PathLoss, Vec<PriorBin>)], cfg: &WallPriorConfig) -> (Vec<Pat
         out.transmitters += 1;
         out.bins += bins.len();
         for b in bins {
-            let e_site = b.rssi_dbm - (site.rssi_1m_dbm - site.exponent * b.log_range);
+            let e_site = b.rssi_dbm - mean(site, &WallLoss::default(), b.log_range, b.crossings);
             let e_prior = b.rssi_dbm - mean(m, &loss, b.log_range, b.crossings);
             sw += b.weight;
             s_site += b.weight * e_site * e_site;
@@ -193,11 +193,10 @@ fn fit_model(bins: &[PriorBin], loss: &WallLoss) -> Option<PathLoss> {
     }
     let (mx, my) = (sx / sw, sy / sw);
     let vxx = sxx / sw - mx * mx;
-    let n = if vxx > 1e-9 {
-        ((sxy / sw - mx * my) / vxx).clamp(MIN_EXPONENT, MAX_EXPONENT)
-    } else {
+    if vxx <= 1e-9 {
         return None;
-    };
+    }
+    let n = ((sxy / sw - mx * my) / vxx).clamp(MIN_EXPONENT, MAX_EXPONENT);
     // R0 for the (maybe clamped) exponent
     Some(PathLoss {
         rssi_1m_dbm: my - n * mx,

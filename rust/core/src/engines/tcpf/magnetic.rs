@@ -45,7 +45,7 @@ impl TcpfEngine {
         let Some(grid) = model.magnetic().and_then(|m| m.grid(self.floor)) else {
             return;
         };
-        let mc = self.cfg.magnetic.clone();
+        let mc = &self.cfg.magnetic;
         let (nu, extra2) = (mc.nu, mc.extra_sd_ut * mc.extra_sd_ut);
         let mut log_l = std::mem::take(&mut self.scratch.log_l);
         log_l.clear();
@@ -71,11 +71,12 @@ impl TcpfEngine {
                 *l = weight * if l.is_nan() { fill } else { *l };
             }
             self.pf.weight_log(&log_l);
-            self.resample_if_degenerate();
             self.counts.magnetic_updates += 1;
             let innovation = (rsum / wsum - self.magnetic.offset_ut).clamp(-10.0, 10.0);
             self.magnetic.offset_ut = (self.magnetic.offset_ut + mc.offset_gain * innovation)
                 .clamp(-mc.max_offset_ut, mc.max_offset_ut);
+            // (the offset is the cloud's before resampling, as it was weighed)
+            self.resample_if_degenerate();
         }
         self.scratch.log_l = log_l;
     }

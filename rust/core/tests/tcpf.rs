@@ -327,8 +327,15 @@ fn wing_walks(site: &Arc<Site>) -> Vec<WingWalk> {
 }
 
 /// `tcpf` with `cfg` on the wrong-wing model (or `pdr` when `cfg` is
-/// `None`) over `walks`, engine seed = sim seed.
-fn wing_run(site: &Arc<Site>, walks: &[WingWalk], cfg: Option<&EngineConfig>) -> WingRun {
+/// `None`) over `walks`, engine seed = sim seed. The model: `map` (a
+/// radio map surveyed wrong in the wing, [`wrong_wing_map`]), or else the
+/// path-loss model made wrong there ([`WrongWing`]).
+fn wing_run(
+    site: &Arc<Site>,
+    walks: &[WingWalk],
+    cfg: Option<&EngineConfig>,
+    map: Option<&Arc<dyn fpbp_core::radio::RadioModel>>,
+) -> WingRun {
     use fpbp_core::engine::replay::Replayer;
     use fpbp_core::engines::tcpf::TcpfEngine;
     let mut run = WingRun {
@@ -351,10 +358,13 @@ fn wing_run(site: &Arc<Site>, walks: &[WingWalk], cfg: Option<&EngineConfig>) ->
                     seed: *seed,
                     ..cfg.clone()
                 };
-                let model = Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
-                    site,
-                    TcpfEngine::path_loss_params(&c),
-                )));
+                let model: Arc<dyn fpbp_core::radio::RadioModel> = match map {
+                    Some(m) => Arc::clone(m),
+                    None => Arc::new(WrongWing(fpbp_core::radio::PathLossModel::for_site(
+                        site,
+                        TcpfEngine::path_loss_params(&c),
+                    ))),
+                };
                 let trust = Arc::new(std::sync::Mutex::new(1.0));
                 let mut rec = TrustRecorder {
                     e: TcpfEngine::with_model(site.clone(), &c, Some(*init), model).unwrap(),
@@ -411,10 +421,10 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
     off_cfg.tcpf.integrity.fit_free_z2_without_map = 0.0;
     let mut pull_cfg = off_cfg.clone();
     pull_cfg.tcpf.integrity.enabled = true;
-    let fit = wing_run(&site, &walks, Some(&fit_cfg));
-    let pull = wing_run(&site, &walks, Some(&pull_cfg));
-    let off = wing_run(&site, &walks, Some(&off_cfg));
-    let pdr = wing_run(&site, &walks, None);
+    let fit = wing_run(&site, &walks, Some(&fit_cfg), None);
+    let pull = wing_run(&site, &walks, Some(&pull_cfg), None);
+    let off = wing_run(&site, &walks, Some(&off_cfg), None);
+    let pdr = wing_run(&site, &walks, None, None);
     // the wing's points where every run has a pose
     let n = fit.wing_errors.len();
     assert!([&pull, &off, &pdr].iter().all(|r| r.wing_errors.len() == n));
@@ -458,4 +468,126 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
         pi < po - 0.02,
         "pull check's trust in the wing {pi:.2}, outside {po:.2}"
     );
+}
+
+/// A radio map surveyed wrong over the east wing: four simulated survey
+/// walks (240 s, sim seeds 41-44) over the whole demo site, their
+/// readings made east of `WING_X_M` 10 dB off as [`WrongWing`] has it
+/// (stronger for even-numbered transmitters, weaker for odd ones), as
+/// when transmitters were moved or re-powered there after the survey.
+fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
+    use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
+    use fpbp_core::radio::reference_scans::ReferenceScanConfig;
+    use fpbp_core::radio::{PathLossModel, RadioModel, TxKind};
+    let index = PathLossModel::for_site(
+        site,
+        fpbp_core::engines::tcpf::TcpfEngine::path_loss_params(&EngineConfig::default()),
+    );
+    let off = |kind: TxKind, id: &str| match index.lookup(kind, id) {
+        Some(tx) if tx % 2 == 0 => 10.0,
+        Some(_) => -10.0,
+        None => 0.0,
+    };
+    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
+        .unwrap()
+        .with_reference_scans(&ReferenceScanConfig::default())
+        .unwrap();
+    for seed in [41, 42, 43, 44] {
+        let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
+        let mut x = None;
+        let events: Vec<LogEvent> = log
+            .events
+            .iter()
+            .map(|e| {
+                if let LogEvent::Truth(t) = e {
+                    x = Some(t.x_m);
+                }
+                let wing = x.is_some_and(|x| x > WING_X_M);
+                match e {
+                    LogEvent::Ble(o) if wing => {
+                        let mut o = o.clone();
+                        o.rssi_dbm += off(TxKind::Ble, &o.beacon_id);
+                        LogEvent::Ble(o)
+                    }
+                    LogEvent::Wifi(s) if wing => {
+                        let mut s = s.clone();
+                        for r in &mut s.results {
+                            r.rssi_dbm += off(TxKind::Wifi, &r.bssid);
+                        }
+                        LogEvent::Wifi(s)
+                    }
+                    _ => e.clone(),
+                }
+            })
+            .collect();
+        b.add_log(&events);
+    }
+    let (map, _, _) = b.finish().unwrap();
+    Arc::new(map)
+}
+
+/// The same case with a radio map whose survey went wrong over the
+/// wing ([`wrong_wing_map`]), walks started at their first truth point.
+/// - The defaults: the track's error in the wing within 1.1 x `pdr`'s
+///   (measured 5.61 m against 5.65; on sim seeds 1-12 instead of 1-8,
+///   5.51 against 4.95, 1.11 x). NOT MET: their radio trust does not drop
+///   in the wing (1.00 in and out), because the fit check is off with a
+///   radio map (on real sites it costs the surveyed routes: docs/tcpf.md
+///   "Radio integrity").
+/// - The fit check with a radio map (`tcpf.integrity.fit_free_z2` 1.7):
+///   the error in the wing below the defaults' (measured 4.77 m) and the
+///   trust lower there than outside (0.36 / 0.85).
+///
+/// Figures printed with `--nocapture`.
+#[test]
+fn a_radio_map_wrong_over_one_wing_is_not_followed_there() {
+    let site = demo_site();
+    let walks = wing_walks(&site);
+    let map = wrong_wing_map(&site);
+    let default_cfg = EngineConfig::default();
+    let mut fit_cfg = EngineConfig::default();
+    fit_cfg.tcpf.integrity.fit_free_z2 = 1.7;
+    let def = wing_run(&site, &walks, Some(&default_cfg), Some(&map));
+    let fit = wing_run(&site, &walks, Some(&fit_cfg), Some(&map));
+    let pdr = wing_run(&site, &walks, None, None);
+    let n = fit.wing_errors.len();
+    assert!([&def, &pdr].iter().all(|r| r.wing_errors.len() == n));
+    let both: Vec<usize> = (0..n)
+        .filter(|&i| {
+            [&def, &fit, &pdr]
+                .iter()
+                .all(|r| r.wing_errors[i].is_some())
+        })
+        .collect();
+    assert!(both.len() > 50, "{} wing points", both.len());
+    let m = |r: &WingRun| {
+        mean(
+            &both
+                .iter()
+                .filter_map(|&i| r.wing_errors[i])
+                .collect::<Vec<_>>(),
+        )
+    };
+    let (d, f, q) = (m(&def), m(&fit), m(&pdr));
+    let (ti, to) = (mean(&fit.trust_in), mean(&fit.trust_out));
+    let (di, dout) = (mean(&def.trust_in), mean(&def.trust_out));
+    eprintln!(
+        "radio map wrong in the wing ({} of {n} points): defaults {d:.2} m, fit check {f:.2} m, \
+         pdr {q:.2} m; radio trust in the wing / outside: fit check {ti:.2} / {to:.2}, \
+         defaults {di:.2} / {dout:.2}",
+        both.len()
+    );
+    assert!(
+        f <= 1.1 * q,
+        "fit check {f:.2} m against pdr {q:.2} m in the wrong wing"
+    );
+    assert!(
+        ti < to - 0.3,
+        "fit check's trust in the wing {ti:.2}, outside {to:.2}"
+    );
+    assert!(
+        d <= 1.1 * q,
+        "defaults {d:.2} m against pdr {q:.2} m in the wrong wing"
+    );
+    assert!(d > f, "defaults {d:.2} m, fit check {f:.2} m");
 }

@@ -69,7 +69,8 @@ fn west_wing_map(site: &Site) -> EngineData {
 /// entering the surveyed wing; 14 of the 18 walks are within 5 m then
 /// (mean over the walks 3.50 m; 13 and 3.84 m before the far-survey
 /// penalty); the other four keep a cloud that started in the wrong place
-/// 5-11 m off (docs/tcpf.md "Far from the survey"). Before the far test
+/// 5-11 m off, held there by the phone offset the lost cloud learned
+/// (docs/tcpf.md "Far from the survey"). Before the far test
 /// read the window as heard and the global start's radio-alone margin
 /// was 8, 10 of 18 (mean 6.87 m). The test
 /// guards what holds: at least 12 of the walks within 5 m, the mean at

@@ -398,6 +398,29 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+/// The wing's points where every run has a pose: their count, the
+/// number of wing points, and each run's mean error over them.
+fn wing_means(runs: &[&WingRun]) -> (usize, usize, Vec<f64>) {
+    let n = runs[0].wing_errors.len();
+    assert!(runs.iter().all(|r| r.wing_errors.len() == n));
+    let both: Vec<usize> = (0..n)
+        .filter(|&i| runs.iter().all(|r| r.wing_errors[i].is_some()))
+        .collect();
+    assert!(both.len() > 50, "{} wing points", both.len());
+    let means = runs
+        .iter()
+        .map(|r| {
+            mean(
+                &both
+                    .iter()
+                    .filter_map(|&i| r.wing_errors[i])
+                    .collect::<Vec<_>>(),
+            )
+        })
+        .collect();
+    (both.len(), n, means)
+}
+
 /// Issue 39's integrity case: a radio model 10 dB wrong over the east
 /// wing of the demo site, walks started at their first truth point.
 /// - The fit check (on by default with the path-loss model,
@@ -425,29 +448,12 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
     let pull = wing_run(&site, &walks, Some(&pull_cfg), None);
     let off = wing_run(&site, &walks, Some(&off_cfg), None);
     let pdr = wing_run(&site, &walks, None, None);
-    // the wing's points where every run has a pose
-    let n = fit.wing_errors.len();
-    assert!([&pull, &off, &pdr].iter().all(|r| r.wing_errors.len() == n));
-    let both: Vec<usize> = (0..n)
-        .filter(|&i| {
-            [&fit, &pull, &off, &pdr]
-                .iter()
-                .all(|r| r.wing_errors[i].is_some())
-        })
-        .collect();
-    assert!(both.len() > 50, "{} wing points", both.len());
-    let m = |r: &WingRun| {
-        mean(
-            &both
-                .iter()
-                .filter_map(|&i| r.wing_errors[i])
-                .collect::<Vec<_>>(),
-        )
+    let (both, n, means) = wing_means(&[&fit, &pull, &off, &pdr]);
+    let [f, p, o, q] = means[..] else {
+        unreachable!()
     };
-    let (f, p, o, q) = (m(&fit), m(&pull), m(&off), m(&pdr));
     eprintln!(
-        "wing ({} of {n} points): tcpf fit check {f:.2} m, pull check {p:.2} m, neither {o:.2} m, pdr {q:.2} m",
-        both.len()
+        "wing ({both} of {n} points): tcpf fit check {f:.2} m, pull check {p:.2} m, neither {o:.2} m, pdr {q:.2} m"
     );
     let (ti, to) = (mean(&fit.trust_in), mean(&fit.trust_out));
     eprintln!("fit check's mean radio trust in the wing {ti:.2}, outside {to:.2}");
@@ -550,32 +556,14 @@ fn a_radio_map_wrong_over_one_wing_is_not_followed_there() {
     let def = wing_run(&site, &walks, Some(&default_cfg), Some(&map));
     let fit = wing_run(&site, &walks, Some(&fit_cfg), Some(&map));
     let pdr = wing_run(&site, &walks, None, None);
-    let n = fit.wing_errors.len();
-    assert!([&def, &pdr].iter().all(|r| r.wing_errors.len() == n));
-    let both: Vec<usize> = (0..n)
-        .filter(|&i| {
-            [&def, &fit, &pdr]
-                .iter()
-                .all(|r| r.wing_errors[i].is_some())
-        })
-        .collect();
-    assert!(both.len() > 50, "{} wing points", both.len());
-    let m = |r: &WingRun| {
-        mean(
-            &both
-                .iter()
-                .filter_map(|&i| r.wing_errors[i])
-                .collect::<Vec<_>>(),
-        )
-    };
-    let (d, f, q) = (m(&def), m(&fit), m(&pdr));
+    let (both, n, means) = wing_means(&[&def, &fit, &pdr]);
+    let [d, f, q] = means[..] else { unreachable!() };
     let (ti, to) = (mean(&fit.trust_in), mean(&fit.trust_out));
     let (di, dout) = (mean(&def.trust_in), mean(&def.trust_out));
     eprintln!(
-        "radio map wrong in the wing ({} of {n} points): defaults {d:.2} m, fit check {f:.2} m, \
+        "radio map wrong in the wing ({both} of {n} points): defaults {d:.2} m, fit check {f:.2} m, \
          pdr {q:.2} m; radio trust in the wing / outside: fit check {ti:.2} / {to:.2}, \
-         defaults {di:.2} / {dout:.2}",
-        both.len()
+         defaults {di:.2} / {dout:.2}"
     );
     assert!(
         f <= 1.1 * q,

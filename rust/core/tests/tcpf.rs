@@ -398,6 +398,20 @@ fn mean(v: &[f64]) -> f64 {
     v.iter().sum::<f64>() / v.len().max(1) as f64
 }
 
+/// The fit check's promise in the wrong wing: its error there (`f`)
+/// within 1.1 x `pdr`'s (`q`), its trust in the wing (`ti`) well below
+/// the trust outside (`to`).
+fn assert_the_fit_check_holds_the_wing(f: f64, q: f64, ti: f64, to: f64) {
+    assert!(
+        f <= 1.1 * q,
+        "fit check {f:.2} m against pdr {q:.2} m in the wrong wing"
+    );
+    assert!(
+        ti < to - 0.3,
+        "fit check's trust in the wing {ti:.2}, outside {to:.2}"
+    );
+}
+
 /// The wing's points where every run has a pose: their count, the
 /// number of wing points, and each run's mean error over them.
 fn wing_means(runs: &[&WingRun]) -> (usize, usize, Vec<f64>) {
@@ -457,14 +471,7 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
     );
     let (ti, to) = (mean(&fit.trust_in), mean(&fit.trust_out));
     eprintln!("fit check's mean radio trust in the wing {ti:.2}, outside {to:.2}");
-    assert!(
-        f <= 1.1 * q,
-        "fit check {f:.2} m against pdr {q:.2} m in the wrong wing"
-    );
-    assert!(
-        ti < to - 0.3,
-        "fit check's trust in the wing {ti:.2}, outside {to:.2}"
-    );
+    assert_the_fit_check_holds_the_wing(f, q, ti, to);
     assert!(
         p <= 0.8 * o,
         "pull check {p:.2} m, without {o:.2} m in the wrong wing"
@@ -565,14 +572,7 @@ fn a_radio_map_wrong_over_one_wing_is_not_followed_there() {
          pdr {q:.2} m; radio trust in the wing / outside: fit check {ti:.2} / {to:.2}, \
          defaults {di:.2} / {dout:.2}"
     );
-    assert!(
-        f <= 1.1 * q,
-        "fit check {f:.2} m against pdr {q:.2} m in the wrong wing"
-    );
-    assert!(
-        ti < to - 0.3,
-        "fit check's trust in the wing {ti:.2}, outside {to:.2}"
-    );
+    assert_the_fit_check_holds_the_wing(f, q, ti, to);
     assert!(
         d <= 1.1 * q,
         "defaults {d:.2} m against pdr {q:.2} m in the wrong wing"

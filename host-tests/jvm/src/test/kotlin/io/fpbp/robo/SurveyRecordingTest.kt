@@ -226,7 +226,11 @@ class SurveyRecordingTest {
         }
         shadowOf(wifi).setScanResults(list)
         app.sendBroadcast(Intent(WifiManager.SCAN_RESULTS_AVAILABLE_ACTION))
-        assertTrue("WiFi scan $k not recorded: ${s.counts()}", RoboSupport.idleUntil { s.counts().wifiScans == k.toLong() })
+        // 30 s, as the walk's end: the writer thread is the only one that counts, and a loaded machine may stall it
+        assertTrue(
+            "WiFi scan $k not recorded: ${s.counts()}; problems: ${s.describeProblems()}; failure: ${s.failure}",
+            RoboSupport.idleUntil(30_000) { s.counts().wifiScans == k.toLong() },
+        )
         return list.size
     }
 

@@ -192,14 +192,7 @@ fn fit_model(xs: &[f64], ys: &[f64], cfg: &CalibrationConfig) -> (f64, f64, f64)
     let cost = prior
         + xs.iter()
             .zip(ys)
-            .map(|(x, y)| {
-                let r = (y - (r0 - 10.0 * n * x)).abs();
-                if r <= k {
-                    0.5 * r * r
-                } else {
-                    k * (r - 0.5 * k)
-                }
-            })
+            .map(|(x, y)| huber(y - (r0 - 10.0 * n * x), k))
             .sum::<f64>();
     (r0, n, cost)
 }
@@ -292,16 +285,18 @@ fn fit_transmitter(bins: &[Bin], min_d: f64, cfg: &CalibrationConfig) -> Fit {
 fn huber_cost(bins: &[&Bin], q: Vec2, r0: f64, n: f64, min_d: f64, k: f64) -> f64 {
     let resid = |b: &Bin| b.rssi - (r0 - 10.0 * n * (b.pos - q).norm().max(min_d).log10());
     let offset = bins.iter().map(|b| resid(b)).sum::<f64>() / bins.len().max(1) as f64;
-    bins.iter()
-        .map(|b| {
-            let r = (resid(b) - offset).abs();
-            if r <= k {
-                0.5 * r * r
-            } else {
-                k * (r - 0.5 * k)
-            }
-        })
-        .sum()
+    bins.iter().map(|b| huber(resid(b) - offset, k)).sum()
+}
+
+/// The Huber loss of residual `r` with threshold `k`: quadratic within
+/// +-k, linear beyond.
+fn huber(r: f64, k: f64) -> f64 {
+    let r = r.abs();
+    if r <= k {
+        0.5 * r * r
+    } else {
+        k * (r - 0.5 * k)
+    }
 }
 
 /// RMS over paths (>= 5 bins) of sqrt(2 (cost at the common position - cost at

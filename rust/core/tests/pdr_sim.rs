@@ -5,19 +5,14 @@
 //! (`cargo run --release -p fpbp-cli --example pdr_sim`, 120 s walks): heading
 //! |err| median 7-13 deg with `tilt_aware`, 84-142 deg with `top`.
 
-use std::path::Path;
-use std::sync::Arc;
+mod common;
 
+use common::demo_site;
 use fpbp_core::events::LogEvent;
 use fpbp_core::geometry::wrap_angle;
 use fpbp_core::pdr::{ForwardAxis, Pdr, PdrConfig};
 use fpbp_core::site::Site;
 use fpbp_sim::{SimProfile, SimRequest, simulate};
-
-fn demo_site() -> Arc<Site> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_core::site::files::load_site(&path).unwrap()
-}
 
 /// (median |heading error| deg, walked-distance ratio) of one simulated walk.
 fn run(site: &Site, profile: &str, seed: u64, cfg: &PdrConfig) -> (f64, f64) {

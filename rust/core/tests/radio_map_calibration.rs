@@ -3,9 +3,9 @@
 //! walks on other routes (other seeds) are read against it, and the
 //! standardised residuals are binned by distance from the survey.
 
-use std::path::Path;
-use std::sync::Arc;
+mod common;
 
+use common::demo_site;
 use fpbp_core::events::LogEvent;
 use fpbp_core::radio::RadioMap;
 use fpbp_core::radio::map_calibration::{
@@ -14,11 +14,6 @@ use fpbp_core::radio::map_calibration::{
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
-
-fn demo_site() -> Arc<Site> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_core::site::files::load_site(&path).unwrap()
-}
 
 fn walks(site: &Site, seeds: &[u64], duration_s: f64) -> Vec<Vec<LogEvent>> {
     seeds

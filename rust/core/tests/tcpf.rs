@@ -2,9 +2,12 @@
 //! issue 16 (the same walk heard by a phone 9 dB weaker), a start from a
 //! scan far from the walks, and the published track against the walls.
 
+mod common;
+
 use std::path::Path;
 use std::sync::Arc;
 
+use common::demo_site;
 use fpbp_core::Vec2;
 use fpbp_core::engine::replay::{ReplayOutput, replay};
 use fpbp_core::engine::{Pose, track_segment_crosses_wall};
@@ -12,11 +15,6 @@ use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::events::LogEvent;
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
-
-fn demo_site() -> Arc<Site> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_core::site::files::load_site(&path).unwrap()
-}
 
 fn run(site: &Arc<Site>, events: &[LogEvent], seed: u64) -> ReplayOutput {
     run_with(site, events, seed, &EngineConfig::default())
@@ -489,8 +487,6 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
 /// (stronger for even-numbered transmitters, weaker for odd ones), as
 /// when transmitters were moved or re-powered there after the survey.
 fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
-    use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-    use fpbp_core::radio::reference_scans::ReferenceScanConfig;
     use fpbp_core::radio::{PathLossModel, RadioModel, TxKind};
     let index = PathLossModel::for_site(
         site,
@@ -501,15 +497,9 @@ fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
         Some(_) => -10.0,
         None => 0.0,
     };
-    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
-        .unwrap()
-        .with_reference_scans(&ReferenceScanConfig::default())
-        .unwrap();
-    for seed in [41, 42, 43, 44] {
-        let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
+    let wrong_in_the_wing = |events: &[LogEvent]| {
         let mut x = None;
-        let events: Vec<LogEvent> = log
-            .events
+        events
             .iter()
             .map(|e| {
                 if let LogEvent::Truth(t) = e {
@@ -532,11 +522,13 @@ fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
                     _ => e.clone(),
                 }
             })
-            .collect();
-        b.add_log(&events);
-    }
-    let (map, _, _) = b.finish().unwrap();
-    Arc::new(map)
+            .collect()
+    };
+    Arc::new(common::surveyed_map(
+        site,
+        &[41, 42, 43, 44],
+        wrong_in_the_wing,
+    ))
 }
 
 /// The same case with a radio map whose survey went wrong over the

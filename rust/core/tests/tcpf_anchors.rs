@@ -4,33 +4,21 @@
 //! must survive the map's file, position an unseen walk, and keep the engine
 //! deterministic; `scan-knn` must position from them alone.
 
-use std::path::Path;
+mod common;
+
 use std::sync::Arc;
 
+use common::demo_site;
 use fpbp_core::engine::replay::{ReplayOutput, replay};
 use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
+use fpbp_core::events::LogEvent;
 use fpbp_core::radio::RadioMap;
-use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::ReferenceScanConfig;
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
 
-fn demo_site() -> Arc<Site> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_core::site::files::load_site(&path).unwrap()
-}
-
 /// The radio map of three simulated survey walks, with their reference scans.
 fn surveyed_map(site: &Site) -> RadioMap {
-    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
-        .unwrap()
-        .with_reference_scans(&ReferenceScanConfig::default())
-        .unwrap();
-    for seed in [41u64, 42, 43] {
-        let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
-        b.add_log(&log.events);
-    }
-    b.finish().unwrap().0
+    common::surveyed_map(site, &[41, 42, 43], <[LogEvent]>::to_vec)
 }
 
 fn run(site: &Arc<Site>, map: &Arc<RadioMap>, engine: &str, cfg: &EngineConfig) -> ReplayOutput {

@@ -3,25 +3,20 @@
 //! own start (global) must converge once the walker is in the surveyed
 //! wing.
 
-use std::path::Path;
+mod common;
+
 use std::sync::Arc;
 
+use common::demo_site;
 use fpbp_core::engine::InitialPosition;
 use fpbp_core::engine::replay::replay;
 use fpbp_core::engines::{EngineConfig, EngineData, build_engine_with};
 use fpbp_core::events::LogEvent;
-use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::ReferenceScanConfig;
 use fpbp_core::site::Site;
 use fpbp_sim::{SimRequest, simulate};
 
 /// The survey walked only west of this, MCS metres.
 const SURVEYED_X_M: f64 = 34.0;
-
-fn demo_site() -> Arc<Site> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo/site.json");
-    fpbp_core::site::files::load_site(&path).unwrap()
-}
 
 /// `events` without the radio readings made while the walker was east of
 /// `SURVEYED_X_M` (the last truth point before each reading says where).
@@ -44,17 +39,12 @@ fn west_only(events: &[LogEvent]) -> Vec<LogEvent> {
 /// readings east of `SURVEYED_X_M` left out, as `fpbp calibrate
 /// --radio-map` builds it (grids and reference scans).
 fn west_wing_map(site: &Site) -> EngineData {
-    let mut b = RadioMapBuilder::new(site, &RadioMapConfig::default())
-        .unwrap()
-        .with_reference_scans(&ReferenceScanConfig::default())
-        .unwrap();
-    for seed in [41, 42, 43, 44] {
-        let log = simulate(site, &SimRequest::new(240.0, seed)).unwrap();
-        b.add_log(&west_only(&log.events));
-    }
-    let (map, _, _) = b.finish().unwrap();
     EngineData {
-        radio_map: Some(Arc::new(map)),
+        radio_map: Some(Arc::new(common::surveyed_map(
+            site,
+            &[41, 42, 43, 44],
+            west_only,
+        ))),
         ..EngineData::default()
     }
 }

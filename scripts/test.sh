@@ -28,6 +28,9 @@ echo "== cargo clippy -p fpbp-jni --features self-test -D warnings (the test hoo
 cargo clippy -p fpbp-jni --all-targets --release --features self-test -- -D warnings
 echo "== cargo test"
 cargo test --workspace --release
+echo "== scripts: shell syntax, the tuning protocol's table"
+for f in scripts/*.sh scripts/lib/*.sh; do bash -n "$f"; done
+python3 -m unittest discover -s scripts/lib -p 'test_*.py'
 echo "== android/gradlew without and with a wrapper jar (offline, fake distribution)"
 bash host-tests/gradle/gradlew-test.sh
 if [ "$jvm" = 1 ] && [ -x host-tests/jvm/run.sh ]; then

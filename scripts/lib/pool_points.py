@@ -23,10 +23,11 @@ def pool(out, pat):
         if not os.path.isdir(d):
             continue
         for sd in glob.glob(f"{d}/seed-*"):
-            for r in csv.DictReader(open(f"{sd}/points.csv")):
-                e, a = r["error_m"], r["accuracy_m"]
-                by[(r["engine"], os.path.basename(sd))].append(
-                    (float(e), float(a) if a else None) if e else None)
+            with open(f"{sd}/points.csv") as f:
+                for r in csv.DictReader(f):
+                    e, a = r["error_m"], r["accuracy_m"]
+                    by[(r["engine"], os.path.basename(sd))].append(
+                        (float(e), float(a) if a else None) if e else None)
     res = {}
     for eng in sorted({e for e, _ in by}):
         means, cov, p80, inacc, n = [], [], [], [], 0

@@ -102,15 +102,27 @@ pub(super) fn anchor_mix_many(
 }
 
 impl TcpfEngine {
+    /// The far level in force: `anchors.far_db_told` while the cloud
+    /// comes from a told position, else `anchors.far_db`.
+    fn far_db(&self) -> f64 {
+        let ac = &self.cfg.anchors;
+        if self.recovery.told_start {
+            ac.far_db_told
+        } else {
+            ac.far_db
+        }
+    }
+
     /// Whether the phone is far from the survey: the model has reference
-    /// scans, `anchors.far_db` is set, and the last query's closest scan
-    /// was farther than that (or shared no transmitter).
+    /// scans, the far level in force is set, and the last query's closest
+    /// scan was farther than that (or shared no transmitter).
     pub(super) fn far_from_survey(&self) -> bool {
         let ac = &self.cfg.anchors;
+        let far_db = self.far_db();
         ac.k > 0
-            && ac.far_db > 0.0
+            && far_db > 0.0
             && self.model.reference_scans().is_some()
-            && self.anchors.survey_dist_db.is_none_or(|d| d > ac.far_db)
+            && self.anchors.survey_dist_db.is_none_or(|d| d > far_db)
     }
 
     /// Re-seeds part of the cloud around the anchors of `floor` when its
@@ -195,10 +207,8 @@ impl TcpfEngine {
         // the offset was learned where the cloud is: a cloud in the wrong
         // place has a wrong offset, and the window then looks far from a
         // survey it is on; as heard, it may be near (`anchors.far_db`)
-        if off != 0.0
-            && ac.far_db > 0.0
-            && self.anchors.survey_dist_db.is_none_or(|d| d > ac.far_db)
-        {
+        let far_db = self.far_db();
+        if off != 0.0 && far_db > 0.0 && self.anchors.survey_dist_db.is_none_or(|d| d > far_db) {
             let heard = self
                 .anchors
                 .trail

@@ -239,6 +239,12 @@ pub struct AnchorConfig {
     /// transmitter, the cloud is not re-seeded from the likelihood surface
     /// (there the radio map is its own extrapolation). 0 = off.
     pub far_db: f64,
+    /// `far_db` while the cloud comes from a told position
+    /// (`InitialPosition`, `set_position`) rather than from the radio: a
+    /// tap on the map outranks a window that matches the survey only
+    /// loosely, so the surface re-seeds and the survey's lines pull only
+    /// where the window is this close to a reference scan. 0 = off.
+    pub far_db_told: f64,
     /// A query whose closest reference scan is more than this (RMS dB)
     /// from the phone's window gives no anchors: its candidates are the
     /// least bad of scans that share almost nothing with the phone's (a
@@ -306,6 +312,7 @@ impl Default for AnchorConfig {
             floor_force_votes: 5,
             start_wait_s: 5.0,
             far_db: 12.0,
+            far_db_told: 12.0,
             drop_far_db: 0.0,
             far_survey_penalty: 3.0,
             far_survey_sigma_m: 4.0,
@@ -342,6 +349,7 @@ impl AnchorConfig {
             ("start_weight", self.start_weight, 0.0, 100.0),
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
             ("far_db", self.far_db, 0.0, 1000.0),
+            ("far_db_told", self.far_db_told, 0.0, 1000.0),
             ("drop_far_db", self.drop_far_db, 0.0, 1000.0),
             ("far_survey_penalty", self.far_survey_penalty, 0.0, 100.0),
             ("far_survey_sigma_m", self.far_survey_sigma_m, 0.5, 50.0),

@@ -124,7 +124,8 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     let run_with = |shift_db: f64, far_db: f64| {
         let (site, map) = site_with_scans(1, 0, shift_db);
         let mut cfg = EngineConfig::default();
-        cfg.tcpf.anchors.far_db = far_db;
+        // a told start reads `far_db_told`
+        cfg.tcpf.anchors.far_db_told = far_db;
         let mut e = TcpfEngine::with_model(site, &cfg, init, map).unwrap();
         let out = replay(&mut e, ev.iter().cloned());
         (out, e.counts.reseeded, e.counts.reseed_far)
@@ -144,6 +145,34 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     // the gate off: the same survey re-seeds
     let (_, off_reseeded, _) = run_with(30.0, 0.0);
     assert!(off_reseeded > 0);
+}
+
+/// The far level in force: `anchors.far_db_told` while the cloud comes
+/// from a told position, `anchors.far_db` after a global start.
+#[test]
+fn a_told_start_reads_its_own_far_level() {
+    let (site, map) = site_with_scans(1, 0, 0.0);
+    let mut cfg = EngineConfig::default();
+    cfg.tcpf.anchors.far_db = 12.0;
+    cfg.tcpf.anchors.far_db_told = 8.0;
+    let mut e = TcpfEngine::with_model(site, &cfg, Some(BEHIND_THE_WALL), map).unwrap();
+    e.anchors.survey_dist_db = Some(10.0);
+    e.recovery.told_start = true;
+    assert!(e.far_from_survey());
+    e.recovery.told_start = false;
+    assert!(!e.far_from_survey());
+    e.anchors.survey_dist_db = Some(13.0);
+    assert!(e.far_from_survey());
+    e.anchors.survey_dist_db = Some(7.0);
+    e.recovery.told_start = true;
+    assert!(!e.far_from_survey());
+    // 0: the told level off
+    cfg.tcpf.anchors.far_db_told = 0.0;
+    let (site, map) = site_with_scans(1, 0, 0.0);
+    let mut off = TcpfEngine::with_model(site, &cfg, Some(BEHIND_THE_WALL), map).unwrap();
+    off.anchors.survey_dist_db = Some(40.0);
+    off.recovery.told_start = true;
+    assert!(!off.far_from_survey());
 }
 
 /// The survey-distance term widens the radius only beyond

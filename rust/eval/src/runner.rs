@@ -19,8 +19,14 @@ pub fn load_site(path: &Path) -> anyhow::Result<Arc<Site>> {
 }
 
 /// Reads an engine config (JSON; missing fields take defaults) and applies `--seed`.
+/// `path` is a file, or the JSON itself when it starts with `{` and no
+/// such file exists (`--config '{"tcpf":{"anchors":{"k":4}}}'`).
 pub fn load_config(path: Option<&Path>, seed: Option<u64>) -> anyhow::Result<EngineConfig> {
     let mut cfg = match path {
+        Some(p) if p.to_string_lossy().trim_start().starts_with('{') && !p.exists() => {
+            EngineConfig::from_json(&p.to_string_lossy())
+                .context("inline config (--config '{...}')")?
+        }
         Some(p) => {
             let text = std::fs::read_to_string(p)
                 .with_context(|| format!("cannot read config {}", p.display()))?;
@@ -219,5 +225,25 @@ pub fn builder_with(
         Ok(fpbp_core::engines::build_engine_with(
             name, site, cfg, init, &data,
         )?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_config_is_a_file_or_inline_json() {
+        let cfg = load_config(Some(Path::new(r#"{"tcpf":{"anchors":{"k":4}}}"#)), Some(7)).unwrap();
+        assert_eq!(cfg.tcpf.anchors.k, 4);
+        assert_eq!(cfg.seed, 7);
+        let err =
+            load_config(Some(Path::new(r#"{"tcpf":{"no_such_field":1}}"#)), None).unwrap_err();
+        assert!(format!("{err:#}").contains("inline config"), "{err:#}");
+        let err = load_config(Some(Path::new("no/such/config.json")), None).unwrap_err();
+        assert!(
+            format!("{err:#}").contains("cannot read config no/such/config.json"),
+            "{err:#}"
+        );
     }
 }

@@ -36,7 +36,7 @@ pub struct Args {
     /// Engines to run, comma-separated.
     #[arg(long, default_value = "tcpf,fpbp,bp,gml,pdr", value_delimiter = ',')]
     pub engines: Vec<String>,
-    /// Engine config JSON (docs/parameters.md); defaults when absent.
+    /// Engine config: a JSON file, or the JSON itself (`{...}`; docs/parameters.md); defaults when absent.
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// `truth`: every engine starts from each log's first truth point (`pdr` always does).

@@ -42,7 +42,7 @@ pub struct EvalOptions {
     /// Output folder (created).
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
-    /// Engine config JSON.
+    /// Engine config: a JSON file, or the JSON itself (`{...}`).
     #[cfg_attr(feature = "cli", arg(long))]
     pub config: Option<PathBuf>,
     /// `truth`: every engine starts from each log's first truth point (`pdr` always does).

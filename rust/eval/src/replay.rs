@@ -28,7 +28,7 @@ pub struct ReplayOptions {
     /// Output folder (created).
     #[cfg_attr(feature = "cli", arg(long))]
     pub out: PathBuf,
-    /// Engine config JSON (missing fields take their defaults).
+    /// Engine config: a JSON file, or the JSON itself (`{...}`); missing fields take their defaults.
     #[cfg_attr(feature = "cli", arg(long))]
     pub config: Option<PathBuf>,
     /// `truth`: hand the engine the log's first truth point as its start

@@ -498,13 +498,8 @@ fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
         None => 0.0,
     };
     let wrong_in_the_wing = |events: &[LogEvent]| {
-        let mut x = None;
-        events
-            .iter()
-            .map(|e| {
-                if let LogEvent::Truth(t) = e {
-                    x = Some(t.x_m);
-                }
+        common::with_truth_x(events)
+            .map(|(x, e)| {
                 let wing = x.is_some_and(|x| x > WING_X_M);
                 match e {
                     LogEvent::Ble(o) if wing => {

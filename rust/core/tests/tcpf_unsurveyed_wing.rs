@@ -21,17 +21,12 @@ const SURVEYED_X_M: f64 = 34.0;
 /// `events` without the radio readings made while the walker was east of
 /// `SURVEYED_X_M` (the last truth point before each reading says where).
 fn west_only(events: &[LogEvent]) -> Vec<LogEvent> {
-    let mut x = None;
-    events
-        .iter()
-        .filter(|e| {
-            if let LogEvent::Truth(t) = e {
-                x = Some(t.x_m);
-            }
+    common::with_truth_x(events)
+        .filter(|(x, e)| {
             let radio = matches!(e, LogEvent::Ble(_) | LogEvent::Wifi(_));
             !radio || x.is_some_and(|x| x <= SURVEYED_X_M)
         })
-        .cloned()
+        .map(|(_, e)| e.clone())
         .collect()
 }
 

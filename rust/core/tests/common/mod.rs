@@ -18,6 +18,17 @@ pub fn demo_site() -> Arc<Site> {
     fpbp_core::site::files::load_site(&path).unwrap()
 }
 
+/// Each of `events` with the walker's x when it was logged: that of the
+/// last truth point before it (`None` before the first).
+pub fn with_truth_x(events: &[LogEvent]) -> impl Iterator<Item = (Option<f64>, &LogEvent)> {
+    events.iter().scan(None, |x, e| {
+        if let LogEvent::Truth(t) = e {
+            *x = Some(t.x_m);
+        }
+        Some((*x, e))
+    })
+}
+
 /// The radio map of simulated survey walks of `site` (240 s, one per sim
 /// seed of `seeds`), with their reference scans, as `fpbp calibrate
 /// --radio-map` builds it; each walk's events pass through `edit` first

@@ -12,7 +12,9 @@ use fpbp_core::radio::map_calibration::{
 };
 use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::ReferenceScanConfig;
+use fpbp_core::radio::reference_scans::{
+    ReferenceScanConfig, ReferenceScans, ScanMetric, quantile,
+};
 use fpbp_core::radio::walk_offsets;
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
@@ -65,6 +67,7 @@ pub fn build(
         scans.ids().len(),
         s.reference_scans_skipped
     );
+    print_left_out(scans, &s.reference_scan_walks)?;
     let mut why: std::collections::BTreeMap<String, usize> = Default::default();
     for r in reports.iter().filter_map(|r| r.rejected.as_deref()) {
         let key = if r.contains("min_samples") {
@@ -175,4 +178,47 @@ pub fn load(path: &Path, site: &Site) -> Result<Arc<RadioMap>> {
         std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
     let map = RadioMap::from_json(&text, site).with_context(|| format!("{}", path.display()))?;
     Ok(Arc::new(map))
+}
+
+/// At most this many survey scans (evenly spread) are read against the
+/// other walks' scans: the cost grows with their number times the set's.
+pub const LEFT_OUT_SCANS: usize = 5000;
+
+/// The survey scans read against the other walks' scans (leave one walk
+/// out, ranked as `tcpf`'s anchors rank by default), by how far the
+/// nearest other walk passed: the distance a phone on the survey's lines
+/// reads from the survey, and off them (docs/survey.md "Checking the
+/// coverage").
+fn print_left_out(scans: &ReferenceScans, walk_of: &[usize]) -> Result<()> {
+    if scans.is_empty() {
+        return Ok(());
+    }
+    let t0 = std::time::Instant::now();
+    let every = scans.scans().len().div_ceil(LEFT_OUT_SCANS).max(1);
+    let left_out = scans.left_out_distances(walk_of, ScanMetric::BrayCurtisPowed, every)?;
+    println!(
+        "survey scans against the other walks' (leave one walk out; {} scans in {:.1} s), RMS dB:",
+        left_out.len(),
+        t0.elapsed().as_secs_f64()
+    );
+    let band = |gap_m: f64| usize::from(gap_m >= 3.0) + usize::from(gap_m >= 10.0);
+    for (b, name) in ["another walk within 3 m", "3-10 m", "none within 10 m"]
+        .iter()
+        .enumerate()
+    {
+        let d: Vec<f64> = left_out
+            .iter()
+            .filter(|l| band(l.gap_m) == b)
+            .map(|l| l.dist_db)
+            .collect();
+        let q = |p| quantile(&d, p).map_or("-".to_string(), |v| format!("{v:.1}"));
+        println!(
+            "  {name}: {} scans, median {}, p90 {}, p95 {}",
+            d.len(),
+            q(0.5),
+            q(0.9),
+            q(0.95)
+        );
+    }
+    Ok(())
 }

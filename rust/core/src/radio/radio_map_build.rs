@@ -115,6 +115,11 @@ pub struct BuildSummary {
     /// With `wall_prior.enabled`: the wall prior's fit per kind.
     pub ble_wall_prior: Option<WallFit>,
     pub wifi_wall_prior: Option<WallFit>,
+    /// With reference scans: the walk (log added, counted from 0) of each
+    /// scan, for
+    /// [`super::reference_scans::ReferenceScans::left_out_distances`].
+    #[serde(skip)]
+    pub reference_scan_walks: Vec<usize>,
 }
 
 impl BuildSummary {
@@ -447,6 +452,7 @@ impl<'a> RadioMapBuilder<'a> {
         }
         if let Some(b) = scans {
             summary.reference_scans_skipped = b.skipped;
+            summary.reference_scan_walks = b.walk_of().to_vec();
             let set = if cfg.walk_offsets && cfg.walk_offsets_in_scans {
                 b.finish_with_walk_offsets(|walk, kind| summary.walk_offset_db(walk, kind))?
             } else {

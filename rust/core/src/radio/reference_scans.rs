@@ -22,7 +22,8 @@
 //! Layout: this file holds the set, its configuration and its checks;
 //! `query` (and `powed_walk`) the k-nearest-neighbour query,
 //! `candidates` what a query gives, `builder` the set from survey logs,
-//! `trail` the phone's own trailing window.
+//! `trail` the phone's own trailing window, `left_out` each survey scan
+//! read against the other walks' scans.
 
 use serde::{Deserialize, Serialize};
 
@@ -32,12 +33,14 @@ use crate::{Error, Result};
 
 mod builder;
 mod candidates;
+mod left_out;
 mod powed_walk;
 mod query;
 mod trail;
 
 pub use builder::ReferenceScanBuilder;
 pub use candidates::{Candidate, CandidateFix, WeightedCandidate, candidate_fix};
+pub use left_out::{LeftOutScan, MAX_GAP_M, quantile};
 pub use trail::ScanTrail;
 
 /// Most reference scans one set holds (a survey of ~55 h at 1 per s).

@@ -33,6 +33,10 @@ pub struct TcpfCounts {
     /// Re-seedings not done: the phone far from the survey
     /// (`anchors.far_db`).
     pub reseed_far: u64,
+    /// Radio updates made with the phone far from the survey
+    /// (`anchors.far_db`: the window's closest reference scan farther than
+    /// the level in force).
+    pub far_updates: u64,
     /// Anchor queries whose candidates were dropped as too far from the
     /// phone's window (`anchors.drop_far_db`).
     pub anchors_dropped_far: u64,
@@ -52,7 +56,7 @@ pub struct TcpfCounts {
 impl TcpfCounts {
     /// Every count with its field's name (the destructuring lists every
     /// field, so a new count does not compile until it is named here).
-    pub fn named(&self) -> [(&'static str, u64); 19] {
+    pub fn named(&self) -> [(&'static str, u64); 20] {
         let TcpfCounts {
             global_starts,
             radio_updates,
@@ -67,6 +71,7 @@ impl TcpfCounts {
             anchor_queries,
             anchor_reseeded,
             reseed_far,
+            far_updates,
             anchors_dropped_far,
             magnetic_updates,
             step_windows,
@@ -88,6 +93,7 @@ impl TcpfCounts {
             ("anchor_queries", anchor_queries),
             ("anchor_reseeded", anchor_reseeded),
             ("reseed_far", reseed_far),
+            ("far_updates", far_updates),
             ("anchors_dropped_far", anchors_dropped_far),
             ("magnetic_updates", magnetic_updates),
             ("step_windows", step_windows),

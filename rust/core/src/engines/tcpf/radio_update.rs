@@ -132,6 +132,9 @@ impl TcpfEngine {
         self.pf.weight_log(&log_l);
         self.scratch.log_l = log_l;
         self.counts.radio_updates += 1;
+        if self.far_from_survey() {
+            self.counts.far_updates += 1;
+        }
         self.learn_offset(t_ns, meas, &cloud, per_particle);
         self.scratch.cloud = cloud;
         self.resample_if_degenerate();

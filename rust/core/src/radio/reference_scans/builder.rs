@@ -134,6 +134,11 @@ impl ReferenceScanBuilder {
         });
     }
 
+    /// The walk (log, counted from 0) of each scan so far.
+    pub fn walk_of(&self) -> &[usize] {
+        &self.walk_of
+    }
+
     /// The set.
     pub fn finish(self) -> Result<ReferenceScans> {
         ReferenceScans::new(self.cfg, self.ids, self.scans)

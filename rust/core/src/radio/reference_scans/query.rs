@@ -41,6 +41,20 @@ impl ReferenceScans {
         k: usize,
         metric: ScanMetric,
     ) -> Vec<Candidate> {
+        self.query_among(query, use_ble, use_wifi, k, metric, |_| true)
+    }
+
+    /// [`ReferenceScans::query_with`] over the scans `keep` accepts (by
+    /// index).
+    pub(super) fn query_among(
+        &self,
+        query: &[(u32, f64)],
+        use_ble: bool,
+        use_wifi: bool,
+        k: usize,
+        metric: ScanMetric,
+        keep: impl Fn(usize) -> bool,
+    ) -> Vec<Candidate> {
         let used = |j: u32| match self.kind(j) {
             Some(TxKind::Ble) => use_ble,
             Some(TxKind::Wifi) => use_wifi,
@@ -68,7 +82,7 @@ impl ReferenceScans {
             // the scores from the min-level sums alone; the RMS distance
             // of the k winners only (the same bits, `powed_walk`)
             for (si, &min_powed) in self.powed_sums(&q, levels).iter().enumerate() {
-                if min_powed.is_sign_negative() {
+                if min_powed.is_sign_negative() || !keep(si) {
                     continue;
                 }
                 let score = self.powed_score(si, q_powed, min_powed, use_ble, use_wifi);
@@ -76,7 +90,7 @@ impl ReferenceScans {
             }
         } else {
             for (si, sh) in self.shared_sums(&q).iter().enumerate() {
-                if sh.n > 0 {
+                if sh.n > 0 && keep(si) {
                     let d = self.rms_db(q.len(), q_only, (sh.corr, sh.n), si, use_ble, use_wifi);
                     out.push((d, d, si));
                 }

@@ -352,3 +352,50 @@ fn survey_walk_gives_one_scan_per_step_at_the_window_end() {
     let c = s.query(&q, true, true, 1);
     assert!((c[0].pos.x - 10.5).abs() < 1.01, "{c:?}");
 }
+
+#[test]
+fn a_left_out_scan_is_read_against_the_other_walks_only() {
+    // walk 0 at x 0 and 1, walk 1 at x 2 (3 dB off walk 0's x-1 scan on one
+    // radio: RMS sqrt(9 / 2)) and x 40 (alone: no other walk within
+    // MAX_GAP_M)
+    let s = set(
+        vec![
+            scan(0.0, &[(0, -50.0), (1, -70.0)]),
+            scan(1.0, &[(0, -52.0), (1, -68.0)]),
+            scan(2.0, &[(0, -55.0), (1, -68.0)]),
+            scan(40.0, &[(0, -80.0), (1, -40.0)]),
+        ],
+        2,
+    );
+    let walk_of = [0, 0, 1, 1];
+    let rms = ScanMetric::RmsDb;
+    let lo = s.left_out_distances(&walk_of, rms, 1).unwrap();
+    assert_eq!(lo.len(), 4);
+    // its own walk's x-0 scan is closer (2 dB on each radio) but left out
+    let d = (9.0f64 / 2.0).sqrt();
+    assert!((lo[1].dist_db - d).abs() < 1e-9, "{lo:?}");
+    assert!((lo[1].gap_m - 1.0).abs() < 1e-9);
+    assert!((lo[0].gap_m - 2.0).abs() < 1e-9);
+    // walk 1's x-2 scan: walk 0's x-1 scan is the closest
+    assert!((lo[2].dist_db - d).abs() < 1e-9, "{lo:?}");
+    // walk 0's x-0 scan: walk 1's x-2 scan, 5 and 2 dB off
+    assert!(
+        (lo[0].dist_db - (29.0f64 / 2.0).sqrt()).abs() < 1e-9,
+        "{lo:?}"
+    );
+    assert!(lo[3].gap_m.is_infinite());
+    assert!(lo[3].dist_db > 25.0);
+    // ranked as the anchors rank by default: the same left-out scans
+    let powed = s
+        .left_out_distances(&walk_of, ScanMetric::BrayCurtisPowed, 1)
+        .unwrap();
+    assert!((powed[1].dist_db - d).abs() < 1e-9, "{powed:?}");
+    assert!((powed[2].dist_db - d).abs() < 1e-9, "{powed:?}");
+    // every second scan only
+    assert_eq!(s.left_out_distances(&walk_of, rms, 2).unwrap().len(), 2);
+    // the walks must cover the scans
+    assert!(s.left_out_distances(&walk_of[..3], rms, 1).is_err());
+    assert_eq!(quantile(&[3.0, 1.0, 2.0, 4.0], 0.5), Some(2.0));
+    assert_eq!(quantile(&[3.0, 1.0, 2.0, 4.0], 0.9), Some(4.0));
+    assert_eq!(quantile(&[], 0.9), None);
+}

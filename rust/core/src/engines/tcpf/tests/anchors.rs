@@ -128,23 +128,25 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
         cfg.tcpf.anchors.far_db_told = far_db;
         let mut e = TcpfEngine::with_model(site, &cfg, init, map).unwrap();
         let out = replay(&mut e, ev.iter().cloned());
-        (out, e.counts.reseeded, e.counts.reseed_far)
+        let c = &e.counts;
+        assert!(c.far_updates <= c.radio_updates);
+        (out, c.reseeded, c.reseed_far, c.far_updates)
     };
-    let (near, near_reseeded, near_far) = run_with(0.0, 12.0);
+    let (near, near_reseeded, near_far, near_updates) = run_with(0.0, 12.0);
     assert!(
-        near_reseeded > 0 && near_far == 0,
-        "{near_reseeded} {near_far}"
+        near_reseeded > 0 && near_far == 0 && near_updates == 0,
+        "{near_reseeded} {near_far} {near_updates}"
     );
     assert!(late_error(&near) < 3.0, "{:.1} m", late_error(&near));
-    let (far, far_reseeded, far_far) = run_with(30.0, 12.0);
+    let (far, far_reseeded, far_far, far_updates) = run_with(30.0, 12.0);
     assert_eq!(far_reseeded, 0);
-    assert!(far_far > 0);
+    assert!(far_far > 0 && far_updates > 0, "{far_far} {far_updates}");
     // still lost near its wrong start (seeds 1-10: 9.1-10.4 m far, 1.4-2.0
     // m near, with the stop-31 roughening that spreads the cloud more)
     assert!(late_error(&far) > 6.0, "{:.1} m", late_error(&far));
     // the gate off: the same survey re-seeds
-    let (_, off_reseeded, _) = run_with(30.0, 0.0);
-    assert!(off_reseeded > 0);
+    let (_, off_reseeded, _, off_updates) = run_with(30.0, 0.0);
+    assert!(off_reseeded > 0 && off_updates == 0);
 }
 
 /// The far level in force: `anchors.far_db_told` while the cloud comes

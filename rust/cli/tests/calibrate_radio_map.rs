@@ -55,5 +55,18 @@ fn calibrate_writes_the_magnetic_section_of_a_survey_with_a_magnetometer() {
         magnetic.to_string().len() > 100,
         "an empty magnetic section: {magnetic}"
     );
+    // each walk's scans read against the other walk's: where the two
+    // passed within 3 m of each other there are scans to read
+    let near = stdout
+        .lines()
+        .skip_while(|l| !l.starts_with("survey scans against the other walks'"))
+        .find(|l| l.trim_start().starts_with("another walk within 3 m:"))
+        .unwrap_or_else(|| panic!("no leave-one-walk-out lines; calibrate said:\n{stdout}"));
+    let scans: usize = near
+        .split_whitespace()
+        .nth(5)
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{near}"));
+    assert!(scans > 0 && near.contains("median "), "{near}");
     std::fs::remove_dir_all(&dir).ok();
 }

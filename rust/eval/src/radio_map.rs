@@ -12,9 +12,7 @@ use fpbp_core::radio::map_calibration::{
 };
 use fpbp_core::radio::model::TxKind;
 use fpbp_core::radio::radio_map::{RadioMapBuilder, RadioMapConfig};
-use fpbp_core::radio::reference_scans::{
-    ReferenceScanConfig, ReferenceScans, ScanMetric, quantile,
-};
+use fpbp_core::radio::reference_scans::{ReferenceScanConfig, ReferenceScans, ScanMetric};
 use fpbp_core::radio::walk_offsets;
 use fpbp_core::radio::{RadioMap, RadioModel};
 use fpbp_core::site::Site;
@@ -206,18 +204,19 @@ fn print_left_out(scans: &ReferenceScans, walk_of: &[usize]) -> Result<()> {
         .iter()
         .enumerate()
     {
-        let d: Vec<f64> = left_out
+        let mut d: Vec<f64> = left_out
             .iter()
             .filter(|l| band(l.gap_m) == b)
             .map(|l| l.dist_db)
             .collect();
-        let q = |p| quantile(&d, p).map_or("-".to_string(), |v| format!("{v:.1}"));
+        d.sort_by(f64::total_cmp);
+        let q = |p| crate::metrics::percentile(&d, p).map_or("-".into(), |v| format!("{v:.1}"));
         println!(
             "  {name}: {} scans, median {}, p90 {}, p95 {}",
             d.len(),
-            q(0.5),
-            q(0.9),
-            q(0.95)
+            q(50.0),
+            q(90.0),
+            q(95.0)
         );
     }
     Ok(())

@@ -40,7 +40,7 @@ mod trail;
 
 pub use builder::ReferenceScanBuilder;
 pub use candidates::{Candidate, CandidateFix, WeightedCandidate, candidate_fix};
-pub use left_out::{LeftOutScan, MAX_GAP_M, quantile};
+pub use left_out::{LeftOutScan, MAX_GAP_M};
 pub use trail::ScanTrail;
 
 /// Most reference scans one set holds (a survey of ~55 h at 1 per s).

@@ -105,14 +105,3 @@ impl ReferenceScans {
             .collect()
     }
 }
-
-/// The `q`-quantile (0..=1, nearest rank) of `v`; `None` when empty.
-pub fn quantile(v: &[f64], q: f64) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let i = ((q.clamp(0.0, 1.0) * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1;
-    Some(s[i])
-}

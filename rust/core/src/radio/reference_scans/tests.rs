@@ -395,7 +395,4 @@ fn a_left_out_scan_is_read_against_the_other_walks_only() {
     assert_eq!(s.left_out_distances(&walk_of, rms, 2).unwrap().len(), 2);
     // the walks must cover the scans
     assert!(s.left_out_distances(&walk_of[..3], rms, 1).is_err());
-    assert_eq!(quantile(&[3.0, 1.0, 2.0, 4.0], 0.5), Some(2.0));
-    assert_eq!(quantile(&[3.0, 1.0, 2.0, 4.0], 0.9), Some(4.0));
-    assert_eq!(quantile(&[], 0.9), None);
 }

@@ -33,6 +33,12 @@ pub struct OffsetConfig {
     /// Prior mean and standard deviation of the offset, dB.
     pub prior_db: f64,
     pub prior_sd_db: f64,
+    /// The prior's standard deviation when the engine starts at a told
+    /// position (`InitialPosition`) before any reading moved the offset:
+    /// the offset then moves more slowly in the first updates, and absorbs
+    /// less of a map that is wrong where the walk begins. At most
+    /// `prior_sd_db`; 0 (default) = `prior_sd_db`.
+    pub prior_sd_db_told: f64,
     /// The estimate is clamped to +- this, dB.
     pub max_abs_db: f64,
     /// Random walk of the offset, dB per sqrt(second).
@@ -74,6 +80,7 @@ impl Default for OffsetConfig {
             enabled: true,
             prior_db: 0.0,
             prior_sd_db: 4.0,
+            prior_sd_db_told: 0.0,
             max_abs_db: 15.0,
             walk_db_per_sqrt_s: 0.05,
             noise_scale: 1.5,
@@ -95,6 +102,7 @@ impl OffsetConfig {
         for (f, v, lo, hi) in [
             ("prior_db", self.prior_db, -40.0, 40.0),
             ("prior_sd_db", self.prior_sd_db, 0.01, 40.0),
+            ("prior_sd_db_told", self.prior_sd_db_told, 0.0, 40.0),
             ("max_abs_db", self.max_abs_db, 0.0, 60.0),
             ("walk_db_per_sqrt_s", self.walk_db_per_sqrt_s, 0.0, 10.0),
             ("noise_scale", self.noise_scale, 0.0, 100.0),
@@ -178,6 +186,16 @@ impl PhoneOffset {
         }
     }
 
+    /// Back to the prior with standard deviation `prior_sd_db_told` (the
+    /// start at a told position), when no reading has moved the belief
+    /// yet; nothing otherwise, or when that option is 0.
+    pub fn tighten_for_told_start(&mut self) {
+        let sd = self.cfg.prior_sd_db_told;
+        if self.updates == 0 && sd > 0.0 {
+            self.set(self.cfg.prior_db, sd);
+        }
+    }
+
     /// Absorbs one update's residuals `(residual dB, expected dBm, sd dB)`
     /// (residual = heard - expected at the cloud, before any offset) at
     /// `t_ns`. Returns whether it was used.
@@ -241,5 +259,38 @@ mod tests {
         });
         assert!(!off.observe(0, &[(5.0, -60.0, 6.0), (5.0, -60.0, 6.0)]));
         assert_eq!(off.mean_db(), 0.0);
+    }
+
+    #[test]
+    fn a_told_start_tightens_the_prior_only_before_the_first_reading() {
+        let cfg = OffsetConfig {
+            prior_sd_db_told: 2.0,
+            ..OffsetConfig::default()
+        };
+        let mut o = PhoneOffset::new(&cfg);
+        assert_eq!(o.sd_db(), cfg.prior_sd_db);
+        o.tighten_for_told_start();
+        assert!((o.sd_db() - cfg.prior_sd_db_told).abs() < 1e-12);
+        assert_eq!(o.mean_db(), cfg.prior_db);
+        // a tap after readings keeps what they taught
+        let mut moved = PhoneOffset::new(&cfg);
+        assert!(moved.observe(0, &[(-8.0, -60.0, 6.0), (-8.0, -60.0, 6.0)]));
+        let (m, sd) = (moved.mean_db(), moved.sd_db());
+        moved.tighten_for_told_start();
+        assert_eq!((moved.mean_db(), moved.sd_db()), (m, sd));
+        // 0: the prior as configured; above `prior_sd_db`: `prior_sd_db`
+        for (told, want) in [(0.0, 4.0), (9.0, 4.0)] {
+            let mut o = PhoneOffset::new(&OffsetConfig {
+                prior_sd_db_told: told,
+                ..OffsetConfig::default()
+            });
+            o.tighten_for_told_start();
+            assert!((o.sd_db() - want).abs() < 1e-12, "{told}: {}", o.sd_db());
+        }
+        let bad = OffsetConfig {
+            prior_sd_db_told: -1.0,
+            ..OffsetConfig::default()
+        };
+        assert!(bad.validate().is_err());
     }
 }

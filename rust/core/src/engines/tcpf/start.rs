@@ -73,6 +73,7 @@ impl TcpfEngine {
         self.publisher.global_start = None;
         self.integrity.restart(&self.cfg.integrity, true);
         self.online_step.drop_window();
+        self.offset.phone.tighten_for_told_start();
         self.draw_offsets_from_belief();
         self.recovery.monitor.reset();
         self.publisher.published = Some(p);

@@ -149,6 +149,26 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     assert!(off_reseeded > 0 && off_updates == 0);
 }
 
+/// A told start begins with the offset prior `offset.prior_sd_db_told`
+/// (when set); a global one with `offset.prior_sd_db`.
+#[test]
+fn a_told_start_begins_with_the_tighter_offset_prior() {
+    let mut cfg = EngineConfig::default();
+    let engine = |cfg: &EngineConfig, init| {
+        let (site, map) = site_with_scans(1, 0, 0.0);
+        TcpfEngine::with_model(site, cfg, init, map).unwrap()
+    };
+    let prior = cfg.tcpf.offset.prior_sd_db;
+    // default 0: the told start's prior is the global one's
+    let told = engine(&cfg, Some(BEHIND_THE_WALL));
+    assert_eq!(told.offset.phone.sd_db(), prior);
+    cfg.tcpf.offset.prior_sd_db_told = 2.0;
+    let told = engine(&cfg, Some(BEHIND_THE_WALL));
+    assert_eq!(told.offset.phone.sd_db(), 2.0);
+    let global = engine(&cfg, None);
+    assert_eq!(global.offset.phone.sd_db(), prior);
+}
+
 /// The far level in force: `anchors.far_db_told` while the cloud comes
 /// from a told position, `anchors.far_db` after a global start.
 #[test]

@@ -44,7 +44,7 @@ impl ReferenceScans {
                 self.scans.len()
             )));
         }
-        let gaps = self.walk_gaps(walk_of);
+        let grid = self.floor_grid();
         let mut out = Vec::new();
         for si in (0..self.scans.len()).step_by(every.max(1)) {
             let s = &self.scans[si];
@@ -60,48 +60,57 @@ impl ReferenceScans {
             if let Some(c) = best.first() {
                 out.push(LeftOutScan {
                     dist_db: c.dist_db,
-                    gap_m: gaps[si],
+                    gap_m: self.walk_gap(&grid, walk_of, si),
                 });
             }
         }
         Ok(out)
     }
 
-    /// Per scan, the distance to the nearest scan of another walk on its
-    /// floor (infinite beyond [`MAX_GAP_M`]): a grid of `MAX_GAP_M`
-    /// buckets, the 3 x 3 around each scan searched.
-    fn walk_gaps(&self, walk_of: &[usize]) -> Vec<f64> {
-        let b = MAX_GAP_M;
-        let key = |f: i32, x: f64, y: f64| (f, (x / b).floor() as i64, (y / b).floor() as i64);
+    /// The scans by floor and [`MAX_GAP_M`] square.
+    fn floor_grid(&self) -> HashMap<(i32, i64, i64), Vec<usize>> {
         let mut grid: HashMap<(i32, i64, i64), Vec<usize>> = HashMap::new();
         for (i, s) in self.scans.iter().enumerate() {
-            grid.entry(key(s.floor, s.x_m, s.y_m)).or_default().push(i);
+            grid.entry(grid_key(s.floor, s.x_m, s.y_m))
+                .or_default()
+                .push(i);
         }
-        self.scans
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                let (f, kx, ky) = key(s.floor, s.x_m, s.y_m);
-                let mut best = f64::INFINITY;
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        let Some(cell) = grid.get(&(f, kx + dx, ky + dy)) else {
-                            continue;
-                        };
-                        for &o in cell {
-                            if walk_of[o] != walk_of[i] {
-                                let t = &self.scans[o];
-                                best = best.min((t.x_m - s.x_m).hypot(t.y_m - s.y_m));
-                            }
-                        }
-                    }
-                }
-                if best <= MAX_GAP_M {
-                    best
-                } else {
-                    f64::INFINITY
-                }
-            })
-            .collect()
+        grid
     }
+
+    /// The distance from scan `si` to the nearest scan of another walk on
+    /// its floor (infinite beyond [`MAX_GAP_M`]): the 3 x 3 squares of
+    /// `grid` around it searched.
+    fn walk_gap(
+        &self,
+        grid: &HashMap<(i32, i64, i64), Vec<usize>>,
+        walk_of: &[usize],
+        si: usize,
+    ) -> f64 {
+        let s = &self.scans[si];
+        let (f, kx, ky) = grid_key(s.floor, s.x_m, s.y_m);
+        let mut best = f64::INFINITY;
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                let Some(cell) = grid.get(&(f, kx + dx, ky + dy)) else {
+                    continue;
+                };
+                for &o in cell.iter().filter(|&&o| walk_of[o] != walk_of[si]) {
+                    let t = &self.scans[o];
+                    best = best.min((t.x_m - s.x_m).hypot(t.y_m - s.y_m));
+                }
+            }
+        }
+        if best <= MAX_GAP_M {
+            best
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The [`MAX_GAP_M`] square of a place on a floor.
+fn grid_key(floor: i32, x_m: f64, y_m: f64) -> (i32, i64, i64) {
+    let b = MAX_GAP_M;
+    (floor, (x_m / b).floor() as i64, (y_m / b).floor() as i64)
 }

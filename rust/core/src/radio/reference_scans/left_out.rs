@@ -9,7 +9,6 @@
 use std::collections::HashMap;
 
 use super::{ReferenceScans, ScanMetric};
-use crate::radio::model::TxKind;
 use crate::{Error, Result};
 
 /// Spatial gaps beyond this are not searched: infinite.
@@ -52,11 +51,9 @@ impl ReferenceScans {
                 s.tx.iter()
                     .map(|&(j, r10)| (j, crate::radio::radio_map::tenths(r10)))
                     .collect();
-            let has = |kind| q.iter().any(|(j, _)| self.kind(*j) == Some(kind));
+            let (ble, wifi) = self.radios_in(&q);
             let w = walk_of[si];
-            let best = self.query_among(&q, has(TxKind::Ble), has(TxKind::Wifi), 1, metric, |o| {
-                walk_of[o] != w
-            });
+            let best = self.query_among(&q, ble, wifi, 1, metric, |o| walk_of[o] != w);
             if let Some(c) = best.first() {
                 out.push(LeftOutScan {
                     dist_db: c.dist_db,

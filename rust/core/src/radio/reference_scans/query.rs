@@ -198,6 +198,13 @@ impl ReferenceScans {
         }
     }
 
+    /// Whether `query` holds a BLE and a WiFi transmitter: the radios a
+    /// query over what it holds uses.
+    pub(super) fn radios_in(&self, query: &[(u32, f64)]) -> (bool, bool) {
+        let has = |kind: TxKind| query.iter().any(|(j, _)| self.kind(*j) == Some(kind));
+        (has(TxKind::Ble), has(TxKind::Wifi))
+    }
+
     /// [`ReferenceScans::query_with`] over the radios `query` holds, each
     /// of the `k` candidates weighted exp(-(s - s_best) / `tau`) of its
     /// `metric` score s (dB for [`ScanMetric::RmsDb`]), the weights
@@ -209,8 +216,8 @@ impl ReferenceScans {
         tau: f64,
         metric: ScanMetric,
     ) -> Vec<WeightedCandidate> {
-        let has = |kind: TxKind| query.iter().any(|(j, _)| self.kind(*j) == Some(kind));
-        let c = self.query_with(query, has(TxKind::Ble), has(TxKind::Wifi), k, metric);
+        let (ble, wifi) = self.radios_in(query);
+        let c = self.query_with(query, ble, wifi, k, metric);
         let Some(d0) = c.first().map(|c| c.score) else {
             return Vec::new();
         };

@@ -108,6 +108,11 @@ fn read_options(spec: &SiteSpec, floor: Option<i32>) -> ReadOptions {
 }
 
 pub(crate) fn load_events(path: &Path, opts: &ReadOptions) -> Result<Vec<LogEvent>> {
+    Ok(load_log(path, opts)?.events)
+}
+
+/// A log's events and read report (malformed lines warned about).
+fn load_log(path: &Path, opts: &ReadOptions) -> Result<LoadedLog> {
     let (events, report) =
         read_all(path, opts).with_context(|| format!("reading {}", path.display()))?;
     if report.malformed_skipped > 0 {
@@ -117,7 +122,12 @@ pub(crate) fn load_events(path: &Path, opts: &ReadOptions) -> Result<Vec<LogEven
             report.malformed_skipped
         );
     }
-    Ok(events)
+    Ok(LoadedLog {
+        path: path.to_path_buf(),
+        name: path.display().to_string(),
+        events,
+        report,
+    })
 }
 
 fn load_spec(path: &Path) -> Result<SiteSpec> {
@@ -294,25 +304,30 @@ fn survey_log(
     site: &Arc<fpbp_core::site::Site>,
     cfg: &EngineConfig,
     track: SurveyTrack,
-) -> Result<(Vec<LogEvent>, Vec<HeadingSegment>, ShapeCounts)> {
-    let log = LoadedLog {
-        path: path.to_path_buf(),
-        name: path.display().to_string(),
-        events: load_events(path, opts)?,
-        report: Default::default(),
-    };
+) -> Result<SurveyLog> {
+    let log = load_log(path, opts)?;
+    let device = log.report.device.clone();
     let Some(run) = pdr_run(&log, site, cfg)? else {
-        return Ok((log.events, Vec::new(), ShapeCounts::default()));
+        return Ok((log.events, Vec::new(), ShapeCounts::default(), device));
     };
     let segs = segments(&run.out.scored);
     match track {
-        SurveyTrack::Linear => Ok((log.events, segs, ShapeCounts::default())),
+        SurveyTrack::Linear => Ok((log.events, segs, ShapeCounts::default(), device)),
         SurveyTrack::Pdr => {
             let (events, counts) = shaped_events(log.events, &run);
-            Ok((events, segs, counts))
+            Ok((events, segs, counts, device))
         }
     }
 }
+
+/// A survey log's events, heading segments, track shaping counts and the
+/// phone model that recorded it (when the log says).
+type SurveyLog = (
+    Vec<LogEvent>,
+    Vec<HeadingSegment>,
+    ShapeCounts,
+    Option<String>,
+);
 
 pub fn run(args: Args) -> Result<()> {
     let spec = load_spec(&args.site)?;
@@ -334,7 +349,7 @@ pub fn run(args: Args) -> Result<()> {
     for l in &logs {
         bar.set_message(format!("reading {}", l.display()));
         bar.inc(1);
-        let (events, segs, counts) = survey_log(l, &opts, &input, &cfg, args.survey_track)?;
+        let (events, segs, counts, device) = survey_log(l, &opts, &input, &cfg, args.survey_track)?;
         heading_segments.extend(segs);
         shape += counts;
         let mut p = SurveyPath {
@@ -357,7 +372,7 @@ pub fn run(args: Args) -> Result<()> {
             let mut events = events;
             events.retain(radio_map_reads);
             events.shrink_to_fit();
-            radio_map_logs.push((l.clone(), events));
+            radio_map_logs.push((l.clone(), events, device));
         }
         if p.truth.len() < 2 {
             eprintln!("{}: fewer than 2 truth points, skipped", l.display());

@@ -148,6 +148,7 @@ fn radio_map(site: &Site, n: usize) -> RadioMap {
         transmitters,
         reference_scans: None,
         magnetic: None,
+        device_offsets: Default::default(),
     };
     RadioMap::from_file(&file, site).expect("bench radio map")
 }

@@ -24,7 +24,7 @@ use fpbp_core::site::Site;
 /// calibration on them (`fpbp_core::radio::map_calibration`).
 pub fn build(
     site: &Site,
-    logs: Vec<(PathBuf, Vec<LogEvent>)>,
+    logs: Vec<(PathBuf, Vec<LogEvent>, Option<String>)>,
     config: Option<&Path>,
     out: &Path,
     report: Option<&Path>,
@@ -44,7 +44,7 @@ pub fn build(
     let opts = cfg.survey_options((site.spec.floors.len() == 1).then(|| site.default_floor()));
     let mut footprint = SurveyFootprint::default();
     let bar = crate::progress::bar(logs.len() as u64);
-    for (l, events) in logs {
+    for (l, events, device) in logs {
         if !check_logs.is_empty() {
             fpbp_core::radio::survey::survey_samples(&events, &opts, |s| {
                 footprint.add(s.floor, s.pos)
@@ -52,7 +52,7 @@ pub fn build(
         }
         bar.set_message(format!("radio map: {}", l.display()));
         bar.inc(1);
-        b.add_log(&events);
+        b.add_log_of(&events, device.as_deref());
     }
     bar.finish_and_clear();
     let (map, reports, s) = b.finish()?;
@@ -100,6 +100,7 @@ pub fn build(
         "magnetic map: {} magnetometer samples ({} placed), {} cells with a value",
         s.magnetic_samples, s.magnetic_placed, s.magnetic_cells
     );
+    print_devices(map.device_offsets());
     if cfg.walk_offsets {
         let sd = |kind| {
             walk_offsets::spread_db(s.walk_offsets_db(kind))
@@ -181,6 +182,29 @@ pub fn load(path: &Path, site: &Site) -> Result<Arc<RadioMap>> {
 /// At most this many survey scans (evenly spread) are read against the
 /// other walks' scans: the cost grows with their number times the set's.
 pub const LEFT_OUT_SCANS: usize = 5000;
+
+/// The survey's phone models and their offsets per radio.
+fn print_devices(d: &fpbp_core::radio::device_offsets::DeviceOffsets) {
+    if d.is_empty() {
+        return;
+    }
+    let db = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{v:+.1} dB"));
+    let list: Vec<String> = d
+        .iter()
+        .map(|(name, o)| {
+            format!(
+                "{name} ({} walks): BLE {}, WiFi {}",
+                o.walks,
+                db(o.ble_db),
+                db(o.wifi_db)
+            )
+        })
+        .collect();
+    println!(
+        "phone models of the survey, offsets from the map's level: {}",
+        list.join("; ")
+    );
+}
 
 /// The survey scans read against the other walks' scans (leave one walk
 /// out, ranked as `tcpf`'s anchors rank by default), by how far the

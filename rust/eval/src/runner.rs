@@ -188,6 +188,18 @@ pub fn run_log(
     log: &LoadedLog,
 ) -> anyhow::Result<LogRun> {
     let (init, start) = start_for(name, mode, log, site)?;
+    // the phone model the log says recorded it, unless the config names one
+    let with_device;
+    let cfg = match &log.report.device {
+        Some(d) if cfg.device.is_empty() && fpbp_core::radio::device_offsets::valid_name(d) => {
+            with_device = EngineConfig {
+                device: d.clone(),
+                ..cfg.clone()
+            };
+            &with_device
+        }
+        _ => cfg,
+    };
     let mut engine =
         build(name, site.clone(), cfg, init).with_context(|| format!("engine `{name}`"))?;
     let mut r = Replayer::new(engine.as_mut());

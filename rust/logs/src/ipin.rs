@@ -30,6 +30,8 @@ pub struct IpinParser {
     /// Largest disagreement, degrees, between an AHRS row's own angles and the
     /// angles of the quaternion built from it.
     pub ahrs_max_mismatch_deg: Option<f64>,
+    /// The phone model of the header's `% Model:` line.
+    pub device: Option<String>,
 }
 
 impl IpinParser {
@@ -37,12 +39,19 @@ impl IpinParser {
         IpinParser {
             georef,
             ahrs_max_mismatch_deg: None,
+            device: None,
         }
     }
 
     /// Parses one line (without its line break).
     pub fn parse_line(&mut self, line: &str) -> LineOutcome {
         let line = line.trim_end_matches(['\r', '\n']);
+        if let Some(model) = line.strip_prefix("% Model:") {
+            let model = truncate(model.trim());
+            if !model.is_empty() {
+                self.device = Some(model.to_string());
+            }
+        }
         if line.trim().is_empty() || line.starts_with('%') {
             return LineOutcome::Header;
         }

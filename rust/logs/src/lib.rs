@@ -234,8 +234,11 @@ impl LogReader {
         let mut r = self.report.clone();
         match &self.parser {
             Parser::Ilc(p) => r.invalid_tx_power = p.invalid_tx_power,
-            Parser::Ipin(p) => r.orientation_check_max_deg = p.ahrs_max_mismatch_deg,
-            Parser::Native(_) => {}
+            Parser::Ipin(p) => {
+                r.orientation_check_max_deg = p.ahrs_max_mismatch_deg;
+                r.device = p.device.clone();
+            }
+            Parser::Native(p) => r.device = p.header.meta.get("device").cloned(),
         }
         r
     }

@@ -101,6 +101,11 @@ pub struct ReadReport {
     /// Largest disagreement, degrees, between a log's own orientation angles and
     /// the quaternion read from it (IPIN AHRS rows); None for other formats.
     pub orientation_check_max_deg: Option<f64>,
+    /// The phone model that recorded the log, when the log says (native
+    /// `#meta device=`, IPIN `% Model:`); the engine corrects its readings
+    /// by this model's offsets when the radio map knows them.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub device: Option<String>,
     /// Gaps between consecutive events longer than `ReadOptions::gap_threshold_s`.
     pub gaps_over_threshold: u64,
     /// Longest gap between consecutive events, seconds.

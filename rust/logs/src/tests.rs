@@ -320,6 +320,29 @@ fn ipin_wifi_rows_are_grouped_by_app_timestamp() {
 }
 
 #[test]
+fn the_recording_phone_model_is_reported() {
+    let ipin = "% Phone used for this logfile:\n\
+        % Manufacturer:            \tsamsung\n\
+        % Model:                   \tSM-G930F\n\
+        ACCE;0.010;100.0;0.1;0.2;9.8;3\n";
+    let (_, rep) = read_str(ipin, &ReadOptions::default()).unwrap();
+    assert_eq!(rep.device.as_deref(), Some("SM-G930F"));
+    let header = NativeHeader::new().with("device", "Pixel 7");
+    let data = write_native(&sample_events(), &header);
+    let mut r =
+        LogReader::from_reader("n", std::io::Cursor::new(data), &ReadOptions::default()).unwrap();
+    while r.try_next().unwrap().is_some() {}
+    assert_eq!(r.report().device.as_deref(), Some("Pixel 7"));
+    // no model line, an empty one: none
+    let (_, rep) = read_str(
+        "% Model:   \nACCE;0.010;100.0;0.1;0.2;9.8;3\n",
+        &ReadOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(rep.device, None);
+}
+
+#[test]
 fn writer_rejects_ids_with_spaces_and_bad_keys() {
     let mut w = NativeWriter::new(Vec::new(), &NativeHeader::new()).unwrap();
     let e = LogEvent::Ble(BleObservation {

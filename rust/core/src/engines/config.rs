@@ -12,6 +12,11 @@ use crate::{Result, ble::BleConfig, fusion::FusionConfig, pdr::PdrConfig};
 pub struct EngineConfig {
     /// Seed of every RNG the engine owns.
     pub seed: u64,
+    /// The phone model the engine runs on (Android `Build.MODEL`; a
+    /// replayed log's own, when it says): a radio map whose survey recorded
+    /// walks with this model corrects its readings by the model's offsets
+    /// per radio (`tcpf`). Empty = not known.
+    pub device: String,
     pub tasks: TaskConfig,
     pub pdr: PdrConfig,
     pub ble: BleConfig,
@@ -32,6 +37,7 @@ impl Default for EngineConfig {
     fn default() -> Self {
         EngineConfig {
             seed: 1,
+            device: String::new(),
             tasks: TaskConfig::default(),
             pdr: PdrConfig::default(),
             ble: BleConfig::default(),
@@ -58,6 +64,15 @@ impl EngineConfig {
 
     /// Checks every field's range.
     pub fn validate(&self) -> Result<()> {
+        if !self.device.is_empty() && !crate::radio::device_offsets::valid_name(&self.device) {
+            return Err(crate::Error::config(
+                "device",
+                format!(
+                    "a phone model name has 1-{} characters and no control characters",
+                    crate::radio::device_offsets::MAX_DEVICE_CHARS
+                ),
+            ));
+        }
         if self.tasks.radio_period_ms == 0 {
             return Err(crate::Error::config("tasks.radio_period_ms", "must be > 0"));
         }

@@ -28,6 +28,7 @@
 //!   (walls counted on the floor plan) under the radio map, where the
 //!   survey never went.
 
+pub mod device_offsets;
 pub mod fast_ln;
 pub mod likelihood;
 pub mod magnetic_map;

@@ -163,6 +163,12 @@ pub trait RadioModel: Send + Sync {
     fn magnetic(&self) -> Option<&super::magnetic_map::MagneticMap> {
         None
     }
+    /// Phone model `device`'s offset of radio `kind` from the model's
+    /// level, dB (to subtract from its readings), when the survey
+    /// recorded walks with it ([`super::device_offsets`]).
+    fn device_offset_db(&self, _device: &str, _kind: TxKind) -> Option<f64> {
+        None
+    }
 }
 
 /// Settings of [`PathLossModel`].

@@ -420,12 +420,25 @@ pub struct RadioMap {
     pub(crate) scans: Option<super::reference_scans::ReferenceScans>,
     /// The survey's magnetic field, when the map was built with it.
     pub(crate) magnetic: Option<super::magnetic_map::MagneticMap>,
+    /// The survey's phone models' offsets per radio.
+    pub(crate) devices: super::device_offsets::DeviceOffsets,
 }
 
 impl RadioMap {
     /// Attaches the survey's reference scans (carried in the map's file).
     pub fn set_reference_scans(&mut self, scans: super::reference_scans::ReferenceScans) {
         self.scans = Some(scans);
+    }
+
+    /// Attaches the survey's phone models' offsets (carried in the map's
+    /// file).
+    pub fn set_device_offsets(&mut self, devices: super::device_offsets::DeviceOffsets) {
+        self.devices = devices;
+    }
+
+    /// The survey's phone models' offsets per radio.
+    pub fn device_offsets(&self) -> &super::device_offsets::DeviceOffsets {
+        &self.devices
     }
 
     /// Attaches the survey's magnetic map (carried in the map's file).
@@ -465,6 +478,7 @@ impl RadioMap {
             fallback,
             scans: None,
             magnetic: None,
+            devices: Default::default(),
         })
     }
 
@@ -604,6 +618,10 @@ impl RadioModel for RadioMap {
 
     fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
         self.scans.as_ref().filter(|s| !s.is_empty())
+    }
+
+    fn device_offset_db(&self, device: &str, kind: TxKind) -> Option<f64> {
+        self.devices.get(device).and_then(|d| d.of(kind))
     }
 
     fn transmitters(&self) -> &[Transmitter] {

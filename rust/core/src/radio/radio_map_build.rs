@@ -155,6 +155,8 @@ pub struct RadioMapBuilder<'a> {
     summary: BuildSummary,
     magnetic: Option<MagneticMapBuilder>,
     scans: Option<ReferenceScanBuilder>,
+    /// The phone model of each walk added (`None`: not known).
+    devices: Vec<Option<String>>,
 }
 
 impl<'a> RadioMapBuilder<'a> {
@@ -186,6 +188,7 @@ impl<'a> RadioMapBuilder<'a> {
                 None
             },
             scans: None,
+            devices: Vec::new(),
         })
     }
 
@@ -198,8 +201,20 @@ impl<'a> RadioMapBuilder<'a> {
         Ok(self)
     }
 
+    /// Adds one walked log (time-ordered events with truth points),
+    /// recorded by phone model `device` when known: the models' offsets
+    /// per radio come from their walks' ([`super::device_offsets`]).
+    pub fn add_log_of(&mut self, events: &[LogEvent], device: Option<&str>) -> SurveyCounts {
+        let counts = self.add_log(events);
+        if let Some(d) = self.devices.last_mut() {
+            *d = device.map(str::to_string);
+        }
+        counts
+    }
+
     /// Adds one walked log (time-ordered events with truth points).
     pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
+        self.devices.push(None);
         let walk = self.summary.logs;
         self.summary.logs += 1;
         let single = (self.site.spec.floors.len() == 1).then(|| self.site.default_floor());
@@ -281,6 +296,7 @@ impl<'a> RadioMapBuilder<'a> {
             mut summary,
             magnetic,
             scans,
+            devices,
         } = self;
         summary.surveyed = ids.len();
         if cfg.walk_offsets {
@@ -290,7 +306,12 @@ impl<'a> RadioMapBuilder<'a> {
                     .filter(|((k, _), _)| *k == kind)
                     .map(|(_, i)| *i)
                     .collect();
-                let off = remove_walk_offsets(&mut acc, &of_kind, cfg.walk_offset_min_bins);
+                let off = remove_walk_offsets(
+                    &mut acc,
+                    &of_kind,
+                    cfg.walk_offset_min_bins,
+                    cfg.walk_offsets_converged,
+                );
                 match kind {
                     TxKind::Ble => summary.ble_walk_offsets_db = off,
                     TxKind::Wifi => summary.wifi_walk_offsets_db = off,
@@ -460,6 +481,13 @@ impl<'a> RadioMapBuilder<'a> {
             };
             map.set_reference_scans(set);
         }
+        if cfg.walk_offsets {
+            map.set_device_offsets(super::device_offsets::from_walks(
+                &devices,
+                &summary.ble_walk_offsets_db,
+                &summary.wifi_walk_offsets_db,
+            ));
+        }
         Ok((map, reports, summary))
     }
 }
@@ -528,8 +556,13 @@ fn peak(grids: &[Grid], floor: i32) -> Option<Vec2> {
 /// Learns the walks' offsets from the bins of the transmitters `txs`
 /// ([`super::walk_offsets::estimate`]) and removes them from those bins'
 /// sums; returns the offsets.
-fn remove_walk_offsets(acc: &mut [TxAcc], txs: &[usize], min_bins: usize) -> BTreeMap<usize, f64> {
-    use super::walk_offsets::{SharedBin, estimate};
+fn remove_walk_offsets(
+    acc: &mut [TxAcc],
+    txs: &[usize],
+    min_bins: usize,
+    converged: bool,
+) -> BTreeMap<usize, f64> {
+    use super::walk_offsets::{BinLevel, OTHER_WALKS_ROUNDS, ROUNDS, SharedBin, estimate};
     let shared: Vec<SharedBin> = txs
         .iter()
         .flat_map(|i| acc[*i].bins.values().flat_map(|f| f.values()))
@@ -542,7 +575,11 @@ fn remove_walk_offsets(acc: &mut [TxAcc], txs: &[usize], min_bins: usize) -> BTr
                 .collect(),
         })
         .collect();
-    let off = estimate(&shared, min_bins, 5);
+    let off = if converged {
+        estimate(&shared, min_bins, ROUNDS, BinLevel::AllWalks)
+    } else {
+        estimate(&shared, min_bins, OTHER_WALKS_ROUNDS, BinLevel::OtherWalks)
+    };
     for i in txs {
         for b in acc[*i].bins.values_mut().flat_map(|f| f.values_mut()) {
             let (mut sum, mut sum2) = (0.0, 0.0);

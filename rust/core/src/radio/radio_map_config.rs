@@ -46,6 +46,14 @@ pub struct RadioMapConfig {
     /// A walk needs this many bins shared with other walks for an offset
     /// (fewer: none). Default 10.
     pub walk_offset_min_bins: usize,
+    /// Estimate the walks' offsets against every walk's reading in a bin,
+    /// the walk's own included, which converges to offsets whose
+    /// differences are the walks' ([`super::walk_offsets::BinLevel`]).
+    /// Default false: against the other walks' readings, 5 rounds, which
+    /// leaves two walks that share bins twice their difference apart (the
+    /// default the protocol was tuned with; docs/lab/tcpf-radio-trust.md
+    /// "Two phone models, two radios").
+    pub walk_offsets_converged: bool,
     /// With `walk_offsets`, remove them from the survey's reference scans
     /// too ([`super::radio_map_build::RadioMapBuilder::with_reference_scans`]). Default true.
     pub walk_offsets_in_scans: bool,
@@ -99,6 +107,7 @@ impl Default for RadioMapConfig {
             moving_min_bins: 3,
             walk_offsets: true,
             walk_offset_min_bins: 10,
+            walk_offsets_converged: false,
             walk_offsets_in_scans: true,
             max_cells_per_grid: 40_000,
             wifi_max_age_s: 4.0,

@@ -4,7 +4,11 @@
 //! against the site (its floors; the map carries its own fallback models).
 //! Errors name the field at fault (`transmitters[3].grids[0].nx`).
 
+use std::collections::BTreeMap;
+
 use serde::{Deserialize, Serialize};
+
+use super::device_offsets::{self, DeviceOffset};
 
 use super::magnetic_map::MagneticMap;
 use super::model::{Transmitter, TxKind};
@@ -20,8 +24,9 @@ use crate::{Error, Result};
 /// `format` of a radio map file.
 pub const FORMAT: &str = "fpbp-radio-map";
 /// Current `version`: 2 added the optional `reference_scans` section, 3
-/// the optional `magnetic` section; older files (without them) still read.
-pub const VERSION: u32 = 3;
+/// the optional `magnetic` section, 4 the optional `device_offsets`; older
+/// files (without them) still read.
+pub const VERSION: u32 = 4;
 
 /// The file.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -43,6 +48,10 @@ pub struct RadioMapFile {
     /// likelihood.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub magnetic: Option<MagneticFile>,
+    /// The survey's phone models' offsets per radio, dB (version 4;
+    /// [`super::device_offsets`]).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub device_offsets: BTreeMap<String, DeviceOffset>,
 }
 
 /// The `magnetic` section ([`MagneticMap`]): one grid per floor of the
@@ -135,7 +144,13 @@ impl RadioMap {
             // the lowest version that holds what the file carries, so a
             // map without a magnetic section stays readable by builds
             // that read version 2
-            version: if self.magnetic.is_some() { VERSION } else { 2 },
+            version: if !self.devices.is_empty() {
+                4
+            } else if self.magnetic.is_some() {
+                3
+            } else {
+                2
+            },
             site: self.site_name.clone(),
             fallback: self.fallback,
             transmitters: self
@@ -179,6 +194,7 @@ impl RadioMap {
             magnetic: self.magnetic.as_ref().map(|m| MagneticFile {
                 grids: m.grids().to_vec(),
             }),
+            device_offsets: self.devices.clone(),
         }
     }
 
@@ -318,8 +334,48 @@ impl RadioMap {
             )?;
             map.set_magnetic(Some(MagneticMap::new(grids)));
         }
+        map.set_device_offsets(device_offsets_of(&file.device_offsets)?);
         Ok(map)
     }
+}
+
+/// The checked `device_offsets` section: at most
+/// [`device_offsets::MAX_DEVICES`] models with valid names and finite
+/// offsets within +-60 dB.
+fn device_offsets_of(d: &BTreeMap<String, DeviceOffset>) -> Result<device_offsets::DeviceOffsets> {
+    if d.len() > device_offsets::MAX_DEVICES {
+        return bad(
+            "device_offsets".into(),
+            format!(
+                "{} phone models, at most {}",
+                d.len(),
+                device_offsets::MAX_DEVICES
+            ),
+        );
+    }
+    for (name, o) in d {
+        if !device_offsets::valid_name(name) {
+            return bad(
+                "device_offsets".into(),
+                format!(
+                    "`{}` is not a phone model name (1-{} characters, no control characters)",
+                    crate::bounds::echo(name),
+                    device_offsets::MAX_DEVICE_CHARS
+                ),
+            );
+        }
+        for (f, v) in [("ble_db", o.ble_db), ("wifi_db", o.wifi_db)] {
+            if let Some(v) = v
+                && !(v.is_finite() && v.abs() <= 60.0)
+            {
+                return bad(
+                    format!("device_offsets.{}.{f}", crate::bounds::echo(name)),
+                    format!("must be finite and within +-60 dB, got {v}"),
+                );
+            }
+        }
+    }
+    Ok(d.clone())
 }
 
 /// The checked [`ReferenceScans`] of a file section.

@@ -621,6 +621,65 @@ fn a_survey_walks_own_offset_is_removed_before_smoothing() {
     assert_eq!(plain[0].tx, shifted[0].tx, "walk 0 unchanged");
 }
 
+/// The walks' offsets grouped by the phone model that recorded them go
+/// into the map and its file (version 4); a survey with no model named
+/// writes the file as before.
+#[test]
+fn the_survey_phone_models_offsets_come_from_their_walks_and_round_trip() {
+    let site = open_site(&[]);
+    // walks 0 and 1 at the field's level by model "a", walk 2 and a copy
+    // of it 8 dB stronger by model "b"
+    let mut logs = offset_survey();
+    logs.push(survey_walk(3, &zigzag(&[18.0, 12.0]), 6, &|w, k, p| {
+        field(w, k, p).map(|r| r + 8.0)
+    }));
+    let devices = [Some("a"), Some("a"), Some("b"), Some("b")];
+    let mut builder = RadioMapBuilder::new(&site, &open_cfg()).unwrap();
+    for (l, d) in logs.iter().zip(devices) {
+        builder.add_log_of(l, d);
+    }
+    let (m, _, _) = builder.finish().unwrap();
+    let d = m.device_offsets();
+    assert_eq!(d.len(), 2, "{d:?}");
+    let (a, b) = (d["a"].ble_db.unwrap(), d["b"].ble_db.unwrap());
+    assert!((b - a - 8.0).abs() < 1.0, "a {a:.2}, b {b:.2}");
+    assert_eq!(d["a"].wifi_db, None);
+    assert_eq!(m.device_offset_db("b", TxKind::Ble), Some(b));
+    let text = m.to_json().unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(json["version"], 4);
+    let back = RadioMap::from_json(&text, &site).unwrap();
+    assert_eq!(back.device_offsets(), d);
+    // no model named: no section, the version of before
+    let mut builder = RadioMapBuilder::new(&site, &open_cfg()).unwrap();
+    for l in &logs {
+        builder.add_log(l);
+    }
+    let (plain, _, _) = builder.finish().unwrap();
+    assert!(plain.device_offsets().is_empty());
+    let plain: serde_json::Value = serde_json::from_str(&plain.to_json().unwrap()).unwrap();
+    assert!(plain.get("device_offsets").is_none());
+    assert_eq!(plain["version"], 2);
+    // bad sections name the field
+    let bad = |edit: &dyn Fn(&mut serde_json::Value)| {
+        let mut v = json.clone();
+        edit(&mut v);
+        RadioMap::from_json(&v.to_string(), &site)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = bad(&|v| {
+        let b = v["device_offsets"]["b"].clone();
+        v["device_offsets"]["\u{7}"] = b;
+    });
+    assert!(
+        e.contains("device_offsets") && e.contains("phone model"),
+        "{e}"
+    );
+    let e = bad(&|v| v["device_offsets"]["b"]["ble_db"] = 1e9.into());
+    assert!(e.contains("device_offsets.b.ble_db"), "{e}");
+}
+
 /// A 60 x 30 m floor split by a wall along x = 30 m (one pixel wide).
 fn walled_site() -> Arc<Site> {
     use crate::map::{Feature, FloorMap};

@@ -84,18 +84,29 @@ impl TcpfEngine {
         });
     }
 
-    /// One BLE reading: into the scan window and the anchors' trail.
+    /// The offset of the phone model (`EngineConfig::device`) on radio
+    /// `kind` that the radio map knows, dB (0: none).
+    pub(super) fn device_offset_db(&self, kind: TxKind) -> f64 {
+        match kind {
+            TxKind::Ble => self.device_offsets_db[0],
+            TxKind::Wifi => self.device_offsets_db[1],
+        }
+    }
+
+    /// One BLE reading, corrected by the phone model's offset: into the
+    /// scan window and the anchors' trail.
     pub(super) fn hear_ble(&mut self, obs: &BleObservation) {
         if !(obs.rssi_dbm.is_finite() && obs.rssi_dbm < 0.0) {
             self.stats.rejected_inputs += 1;
             return;
         }
+        let corrected = obs.rssi_dbm - self.device_offset_db(TxKind::Ble);
         if let Some(scans) = self.model.reference_scans()
             && obs.rssi_dbm >= self.cfg.min_rssi_dbm
         {
             self.anchors
                 .trail
-                .push_ble(scans, &obs.beacon_id, obs.t_ns, obs.rssi_dbm);
+                .push_ble(scans, &obs.beacon_id, obs.t_ns, corrected);
         }
         match self.model.lookup(TxKind::Ble, &obs.beacon_id) {
             Some(tx) => {
@@ -104,14 +115,15 @@ impl TcpfEngine {
                     *l = (*l).max(obs.t_ns);
                 }
                 if obs.rssi_dbm >= self.cfg.min_rssi_dbm {
-                    self.input.window.push(tx, obs.rssi_dbm);
+                    self.input.window.push(tx, corrected);
                 }
             }
             None => self.stats.unknown_beacons += 1,
         }
     }
 
-    /// One WiFi scan: its fresh results into the scan window and the
+    /// One WiFi scan: its fresh results, corrected by the phone model's
+    /// offset, into the scan window and the
     /// anchors' trail; every result marks its AP heard.
     pub(super) fn hear_wifi(&mut self, scan: &WifiScan) {
         let max_age = (self.cfg.wifi_max_age_s * 1e9) as i64;
@@ -131,16 +143,17 @@ impl TcpfEngine {
             if r.rssi_dbm < self.cfg.min_rssi_dbm {
                 continue;
             }
+            let corrected = r.rssi_dbm - self.device_offset_db(TxKind::Wifi);
             if let Some(scans) = self.model.reference_scans() {
                 self.anchors.trail.push_wifi(
                     scans,
                     &r.bssid,
                     r.seen_t_ns.min(scan.t_ns),
-                    r.rssi_dbm,
+                    corrected,
                 );
             }
             if let Some(tx) = self.model.lookup(TxKind::Wifi, &r.bssid) {
-                self.input.window.push(tx, r.rssi_dbm);
+                self.input.window.push(tx, corrected);
             }
         }
     }

@@ -77,6 +77,7 @@ use crate::events::{BleObservation, SensorData, SensorEvent, WifiScan};
 use crate::floor::FloorTracker;
 use crate::fusion::ParticleFilter;
 use crate::pdr::Pdr;
+use crate::radio::TxKind;
 use crate::radio::model::PathLossParams;
 use crate::radio::reference_scans::candidate_fix;
 use crate::radio::{PathLossModel, RadioModel};
@@ -142,6 +143,9 @@ pub struct TcpfEngine {
     stats: EngineStats,
     /// Diagnostics of the run.
     pub counts: TcpfCounts,
+    /// The phone model's offsets (BLE, WiFi) the radio map knows, dB,
+    /// subtracted from every reading (`EngineConfig::device`).
+    device_offsets_db: [f64; 2],
 }
 
 impl TcpfEngine {
@@ -203,6 +207,13 @@ impl TcpfEngine {
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
             counts: TcpfCounts::default(),
+            device_offsets_db: [TxKind::Ble, TxKind::Wifi].map(|k| {
+                if config.device.is_empty() {
+                    0.0
+                } else {
+                    model.device_offset_db(&config.device, k).unwrap_or(0.0)
+                }
+            }),
             model,
             cfg,
             site,

@@ -81,6 +81,60 @@ fn learns_a_phone_offset_and_reports_it() {
     assert_eq!(fixed.stats.rssi_offset_db, Some(0.0));
 }
 
+/// A phone model the survey recorded reads with the survey's offsets of
+/// that model removed (`EngineConfig::device`): a phone 9 dB weaker on
+/// BLE tracks as one at the map's level, without learning an offset; an
+/// unknown model, or none, is not corrected.
+#[test]
+fn a_surveyed_phone_model_is_corrected_by_its_offsets() {
+    use crate::radio::device_offsets::DeviceOffset;
+    let (site, map) = site_with_scans(1, 0, 0.0);
+    let mut map = (*map).clone();
+    let weak = DeviceOffset {
+        ble_db: Some(-9.0),
+        wifi_db: Some(4.0),
+        walks: 3,
+    };
+    map.set_device_offsets([("SM-WEAK".to_string(), weak)].into());
+    let map: Arc<dyn crate::radio::RadioModel> = Arc::new(map);
+    assert_eq!(map.device_offset_db("SM-WEAK", TxKind::Ble), Some(-9.0));
+    assert_eq!(map.device_offset_db("SM-OTHER", TxKind::Ble), None);
+    let run_as = |device: &str, shift_db: f64| {
+        let mut cfg = EngineConfig {
+            device: device.to_string(),
+            ..Default::default()
+        };
+        // the offset stays at 0: only the model's correction can help
+        cfg.tcpf.offset.enabled = false;
+        let mut e = TcpfEngine::with_model(site.clone(), &cfg, None, map.clone()).unwrap();
+        let f = biased(shift_db);
+        let out = replay(&mut e, walk_north(30, Some(&f)));
+        (mean_error(&out), out)
+    };
+    let (at_level, _) = run_as("", 0.0);
+    let (corrected, out) = run_as("SM-WEAK", -9.0);
+    let (unknown, _) = run_as("SM-OTHER", -9.0);
+    let (untold, untold_out) = run_as("", -9.0);
+    assert!(
+        (corrected - at_level).abs() < 0.35,
+        "corrected {corrected:.2} m, a phone at the map's level {at_level:.2} m"
+    );
+    assert!(
+        unknown > corrected + 0.5,
+        "unknown {unknown:.2} m, corrected {corrected:.2} m"
+    );
+    assert_eq!(untold, unknown);
+    assert_eq!(out.stats.rssi_offset_db, Some(0.0));
+    assert_eq!(untold_out.track.len(), out.track.len());
+    // a name that cannot name a phone model is a config error
+    let cfg = EngineConfig {
+        device: "bad\nname".into(),
+        ..Default::default()
+    };
+    let err = cfg.validate().unwrap_err().to_string();
+    assert!(err.contains("device"), "{err}");
+}
+
 /// After a global start the radius is widened by the start cloud's
 /// spread (`start_accuracy_share`), in quadrature, the widening decaying
 /// as exp(-t / `start_accuracy_decay_s`); the track is the same, and a
@@ -407,6 +461,7 @@ fn site_with_scans(
             scans,
         }),
         magnetic: None,
+        device_offsets: Default::default(),
     };
     let map = Arc::new(crate::radio::RadioMap::from_file(&file, &site).unwrap());
     (site, map)

@@ -517,7 +517,8 @@ private class PositioningCore(
         check(closing.get() == null) { "FpbpPositioning is closed" }
         if (engine != null) return@onControlAsync
         try {
-            val e = site.startEngine(options.engine, options.configJson, options.initialPosition)
+            val config = configWithDevice(options.configJson, Build.MODEL)
+            val e = site.startEngine(options.engine, config, options.initialPosition)
             engine = e
             input = Executors.newSingleThreadExecutor { r -> Thread(r, "fpbp-input").apply { isDaemon = true } }
             tasks = newTasks(e)
@@ -898,6 +899,25 @@ private class PositioningCore(
     fun closeAsyncIgnoringResult() {
         closeAsync()
     }
+}
+
+/**
+ * [configJson] with `device` set to [model] (the phone model: a radio map
+ * whose survey recorded walks with it corrects the readings by that
+ * model's offsets), unless it names one already; unchanged when [model]
+ * is blank or the config is not a JSON object (the engine then reports
+ * the config's error).
+ */
+internal fun configWithDevice(configJson: String, model: String?): String {
+    val name = model?.filterNot { it.isISOControl() }?.trim()?.take(64)
+    if (name.isNullOrEmpty()) return configJson
+    val o = try {
+        JSONObject(configJson.ifBlank { "{}" })
+    } catch (e: org.json.JSONException) {
+        return configJson
+    }
+    if (o.has("device")) return configJson
+    return o.put("device", name).toString()
 }
 
 /** The site's georef from site.json (`georef`, `map_from_enu_rad`), null without one. */

@@ -264,6 +264,8 @@ class SurveyRecordingTest {
         val log = file.bufferedReader().use { NativeLogReader.read(it) }
         assertEquals(2, log.version)
         assertEquals("fpbp-survey", log.meta["recorder"])
+        // the phone model, for `fpbp calibrate`'s per-model offsets
+        assertEquals(android.os.Build.MODEL, log.meta["device"])
         val ev = log.events
         val byKind = ev.filterIsInstance<LogEvent.Sensor>().groupingBy { NativeLog.kindOf(it.sensorType)!! }.eachCount().toSortedMap()
         assertEquals("sensor samples per kind", fed.byKind, byKind)

@@ -7,8 +7,8 @@
 //! averages them puts each walk's offset into the places it alone
 //! walked. [`estimate`] finds each walk's offset from the bins it shares
 //! with other walks (the median of its mean minus the other walks'
-//! offset-corrected means, a few rounds; [`BinLevel`]), centred on the readings'
-//! weighted mean so the map's level stays that of the survey as a
+//! offset-corrected means, a few rounds; [`BinLevel`]), centred on the
+//! readings' weighted mean so the map's level stays that of the survey as a
 //! whole; `radio_map.walk_offsets` removes them before smoothing.
 
 use std::collections::BTreeMap;

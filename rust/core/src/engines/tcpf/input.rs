@@ -123,8 +123,8 @@ impl TcpfEngine {
     }
 
     /// One WiFi scan: its fresh results, corrected by the phone model's
-    /// offset, into the scan window and the
-    /// anchors' trail; every result marks its AP heard.
+    /// offset, into the scan window and the anchors' trail; every result
+    /// marks its AP heard.
     pub(super) fn hear_wifi(&mut self, scan: &WifiScan) {
         let max_age = (self.cfg.wifi_max_age_s * 1e9) as i64;
         self.input.wifi_active = true;

@@ -71,17 +71,11 @@ pub fn from_walks(
         }
     }
     let median_of = |ws: &[usize], of: &BTreeMap<usize, f64>| {
-        let mut v: Vec<f64> = ws.iter().filter_map(|w| of.get(w).copied()).collect();
+        let v: Vec<f64> = ws.iter().filter_map(|w| of.get(w).copied()).collect();
         if v.len() < MIN_WALKS {
             return None;
         }
-        v.sort_by(f64::total_cmp);
-        let n = v.len();
-        Some(if n % 2 == 1 {
-            v[n / 2]
-        } else {
-            0.5 * (v[n / 2 - 1] + v[n / 2])
-        })
+        crate::stats::median(&v)
     };
     let mut out: Vec<(String, DeviceOffset)> = walks
         .into_iter()

@@ -207,13 +207,9 @@ impl TcpfEngine {
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),
             counts: TcpfCounts::default(),
-            device_offsets_db: [TxKind::Ble, TxKind::Wifi].map(|k| {
-                if config.device.is_empty() {
-                    0.0
-                } else {
-                    model.device_offset_db(&config.device, k).unwrap_or(0.0)
-                }
-            }),
+            // no map holds an empty name: "" (not known) finds nothing
+            device_offsets_db: [TxKind::Ble, TxKind::Wifi]
+                .map(|k| model.device_offset_db(&config.device, k).unwrap_or(0.0)),
             model,
             cfg,
             site,

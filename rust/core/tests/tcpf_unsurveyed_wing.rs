@@ -50,16 +50,17 @@ fn west_wing_map(site: &Site) -> EngineData {
 /// seed. Per walk, the mean error at the truth points inside the
 /// surveyed wing 30-60 s after the walker first came into it.
 ///
-/// NOT MET in full: issue 39 asks for convergence within 30 s of
-/// entering the surveyed wing; 14 of the 18 walks are within 5 m then
-/// (mean over the walks 3.50 m; 13 and 3.84 m before the far-survey
-/// penalty); the other four keep a cloud that started in the wrong place
-/// 5-11 m off, held there by the phone offset the lost cloud learned
-/// (docs/tcpf.md "Far from the survey"). Before the far test
-/// read the window as heard and the global start's radio-alone margin
-/// was 8, 10 of 18 (mean 6.87 m). The test
-/// guards what holds: at least 12 of the walks within 5 m, the mean at
-/// most 5 m.
+/// Issue 39 asks for convergence within 30 s of entering the surveyed
+/// wing: 17 of the 18 walks are within 5 m then (mean over the walks
+/// 2.40 m). Before `tcpf.offset.reseed_prior_beyond_sd` 14 of 18 (mean
+/// 3.50 m): four walks kept a cloud that started in the wrong place
+/// 5-11 m off, held there by the phone offset the lost cloud had learned
+/// (-14 dB on sim seed 32, whose phone reads as the map), since every
+/// re-seeding profiled its surface under that belief. The one left
+/// (sim seed 32, 6.6 m) was not traced. Per-particle offsets (`tcpf.offset.per_particle`) give 18 of
+/// 18 (2.26 m) but cost the real sets' own start (docs/tcpf.md "Phone
+/// offset of a lost cloud"). The test guards at least 16 of the walks
+/// within 5 m and the mean at most 3 m.
 #[test]
 fn a_start_in_an_unsurveyed_wing_converges_in_the_surveyed_one() {
     let site = demo_site();
@@ -115,8 +116,8 @@ fn a_start_in_an_unsurveyed_wing_converges_in_the_surveyed_one() {
     let mean = sum / f64::from(walks.max(1));
     eprintln!("{within} of {walks} walks within 5 m 30-60 s after entering; mean {mean:.2} m");
     assert!(walks >= 15, "{walks} walks");
-    assert!(within >= 12, "{within} of {walks} walks within 5 m");
-    assert!(mean <= 5.0, "mean {mean:.2} m");
+    assert!(within >= 16, "{within} of {walks} walks within 5 m");
+    assert!(mean <= 3.0, "mean {mean:.2} m");
 }
 
 /// Share of the truth points within the published accuracy radius, in

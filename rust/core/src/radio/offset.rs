@@ -72,6 +72,13 @@ pub struct OffsetConfig {
     /// (`prior_db`, `prior_sd_db`) rather than the cloud's current belief
     /// (a lost cloud's offset is not to be trusted).
     pub reseed_from_prior: bool,
+    /// With one offset for the whole cloud (a radio map): while the
+    /// belief's mean lies more than this many prior sds from the prior's
+    /// mean (a belief the prior finds unlikely, as a lost cloud learns
+    /// it), a re-seeding profiles the offset under the prior instead, and
+    /// the belief becomes the mixture of the old one and the surface's
+    /// by the share of particles re-seeded. 0 = never.
+    pub reseed_prior_beyond_sd: f64,
 }
 
 impl Default for OffsetConfig {
@@ -91,6 +98,7 @@ impl Default for OffsetConfig {
             per_particle_without_map: true,
             particle_walk_db_per_sqrt_s: 0.15,
             reseed_from_prior: false,
+            reseed_prior_beyond_sd: 2.0,
             particle_start_spread: 0.0,
         }
     }
@@ -113,6 +121,12 @@ impl OffsetConfig {
                 self.particle_walk_db_per_sqrt_s,
                 0.0,
                 10.0,
+            ),
+            (
+                "reseed_prior_beyond_sd",
+                self.reseed_prior_beyond_sd,
+                0.0,
+                100.0,
             ),
             (
                 "particle_start_spread",

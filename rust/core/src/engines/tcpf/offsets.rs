@@ -32,10 +32,24 @@ impl TcpfEngine {
     /// `offset.reseed_from_prior` on a re-seeding, the configured prior.
     pub(super) fn profile_prior(&self, reseed: bool) -> (f64, f64) {
         let oc = self.offset.phone.config();
-        if reseed && self.per_particle_offset() && oc.reseed_from_prior {
+        if reseed && self.reseed_under_prior() {
             (oc.prior_db, oc.prior_sd_db)
         } else {
             (self.offset.phone.mean_db(), self.offset.phone.sd_db())
+        }
+    }
+
+    /// Whether a re-seeding profiles the offset under the configured
+    /// prior: with per-particle offsets when `offset.reseed_from_prior`,
+    /// with one offset while its belief lies beyond
+    /// `offset.reseed_prior_beyond_sd` prior sds from the prior's mean.
+    fn reseed_under_prior(&self) -> bool {
+        let oc = self.offset.phone.config();
+        if self.per_particle_offset() {
+            oc.reseed_from_prior
+        } else {
+            let k = oc.reseed_prior_beyond_sd;
+            k > 0.0 && (self.offset.phone.mean_db() - oc.prior_db).abs() > k * oc.prior_sd_db
         }
     }
 
@@ -90,6 +104,32 @@ impl TcpfEngine {
             let z = self.pf.draw_normal();
             self.pf.state_mut()[i] = (mean + sd * z).clamp(-m, m);
         }
+    }
+
+    /// One offset for the cloud after a re-seeding that placed `share` of
+    /// the particles from `s` profiled under the prior
+    /// (`offset.reseed_prior_beyond_sd`): the belief becomes the mixture
+    /// of the old one (1 - share) and the surface's (share).
+    pub(super) fn mix_offset_with_surface(&mut self, s: &Surface, share: f64) {
+        if self.per_particle_offset() || !self.reseed_under_prior() {
+            return;
+        }
+        let f = share.clamp(0.0, 1.0);
+        let wsum: f64 = s.w.iter().sum();
+        if f <= 0.0 || wsum <= 0.0 {
+            return;
+        }
+        let var_s =
+            s.w.iter()
+                .zip(&s.cell_offset_sd_db)
+                .zip(&s.cell_offset_db)
+                .map(|((w, sd), o)| w * (sd * sd + (o - s.offset_db) * (o - s.offset_db)))
+                .sum::<f64>()
+                / wsum;
+        let (m0, sd0) = (self.offset.phone.mean_db(), self.offset.phone.sd_db());
+        let mean = (1.0 - f) * m0 + f * s.offset_db;
+        let var = (1.0 - f) * sd0 * sd0 + f * var_s + f * (1.0 - f) * (m0 - s.offset_db).powi(2);
+        self.offset.phone.set(mean, var.sqrt());
     }
 
     /// The weighted mean and sd of the particles' offsets into the

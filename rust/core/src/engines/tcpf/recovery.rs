@@ -167,6 +167,8 @@ impl TcpfEngine {
                             map.is_none_or(|m| m.is_walkable(q))
                         });
                 self.draw_offsets_from_cells(&surf);
+                let share = n as f64 / self.pf.particles().len().max(1) as f64;
+                self.mix_offset_with_surface(&surf, share);
                 self.counts.reseeded += n as u64;
             }
         }

@@ -42,7 +42,7 @@ pub(super) struct Surface {
     pub(super) cells: Vec<Vec2>,
     pub(super) w: Vec<f64>,
     pub(super) lse: f64,
-    offset_db: f64,
+    pub(super) offset_db: f64,
     pub(super) cell_offset_db: Vec<f64>,
     pub(super) cell_offset_sd_db: Vec<f64>,
 }

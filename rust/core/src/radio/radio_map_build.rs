@@ -205,16 +205,7 @@ impl<'a> RadioMapBuilder<'a> {
     /// recorded by phone model `device` when known: the models' offsets
     /// per radio come from their walks' ([`super::device_offsets`]).
     pub fn add_log_of(&mut self, events: &[LogEvent], device: Option<&str>) -> SurveyCounts {
-        let counts = self.add_log(events);
-        if let Some(d) = self.devices.last_mut() {
-            *d = device.map(str::to_string);
-        }
-        counts
-    }
-
-    /// Adds one walked log (time-ordered events with truth points).
-    pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
-        self.devices.push(None);
+        self.devices.push(device.map(str::to_string));
         let walk = self.summary.logs;
         self.summary.logs += 1;
         let single = (self.site.spec.floors.len() == 1).then(|| self.site.default_floor());
@@ -240,6 +231,12 @@ impl<'a> RadioMapBuilder<'a> {
         sm.invalid += counts.invalid;
         sm.dropped += dropped;
         counts
+    }
+
+    /// Adds one walked log (time-ordered events with truth points) whose
+    /// phone model is not known.
+    pub fn add_log(&mut self, events: &[LogEvent]) -> SurveyCounts {
+        self.add_log_of(events, None)
     }
 
     fn add_sample(&mut self, walk: usize, s: RadioSample) -> bool {

@@ -412,7 +412,7 @@ impl Default for TcpfConfig {
             mode_bin_m: 0.0,
             median_iters: 0,
             accuracy_scale: 1.6,
-            accuracy_min_m: 2.4,
+            accuracy_min_m: 1.6,
             start_accuracy_share: 0.25,
             start_accuracy_decay_s: 30.0,
             converged_radio_scale: 1.0,

@@ -115,7 +115,7 @@ static TENTHS: [f64; 4096] = {
 
 /// `f64::from(x) / 10.0`, from [`TENTHS`] where it holds x.
 #[inline(always)]
-pub(super) fn tenths(x: i16) -> f64 {
+pub(crate) fn tenths(x: i16) -> f64 {
     let i = (i32::from(x) - TENTHS_LO) as usize;
     match TENTHS.get(i) {
         Some(v) => *v,

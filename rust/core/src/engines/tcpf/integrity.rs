@@ -97,6 +97,14 @@ pub struct IntegrityConfig {
     /// particles) reach this: then the misfit is the cloud's (a wrong
     /// told start), not the model's.
     pub fit_lost_wall_kill: f64,
+    /// With a radio map whose survey left reference scans: the fit
+    /// check's z^2 (not the radius's) is divided by the survey's own misfit
+    /// around the cloud relative to the site's median (at least 1, at most
+    /// [`FIT_LOCAL_MAX`]): the mean z^2 of the reference scans in the 3 x 3
+    /// cells of this size around the cloud's mean (`survey_fit.rs`), so
+    /// that where the survey itself misfits the map, a walk's misfit does
+    /// not count as the map being wrong. m; 0 = off.
+    pub fit_local_cell_m: f64,
     pub fit_z2_cap: f64,
     pub fit_rate: f64,
     pub fit_exponent: f64,
@@ -122,6 +130,9 @@ pub struct IntegrityConfig {
     pub fit_accuracy_max_m: f64,
 }
 
+/// The most `fit_local_cell_m`'s level divides the fit check's z^2 by.
+pub const FIT_LOCAL_MAX: f64 = 5.0;
+
 impl Default for IntegrityConfig {
     fn default() -> Self {
         IntegrityConfig {
@@ -139,6 +150,7 @@ impl Default for IntegrityConfig {
             fit_free_z2_without_map: 1.7,
             fit_after_global_start: false,
             fit_lost_wall_kill: 0.5,
+            fit_local_cell_m: 0.0,
             fit_z2_cap: 25.0,
             fit_rate: 0.5,
             fit_exponent: 8.0,
@@ -177,6 +189,7 @@ impl IntegrityConfig {
             ("fit_exponent", self.fit_exponent, 0.1, 16.0),
             ("fit_min_trust", self.fit_min_trust, 0.001, 1.0),
             ("fit_lost_wall_kill", self.fit_lost_wall_kill, 0.0, 1.0),
+            ("fit_local_cell_m", self.fit_local_cell_m, 0.0, 1000.0),
             (
                 "fit_accuracy_m_per_z2",
                 self.fit_accuracy_m_per_z2,
@@ -322,14 +335,18 @@ impl RadioIntegrity {
     }
 
     /// The fit check: `z2` the mean squared standardised residuals (each
-    /// capped) of one radio update's readings at the cloud before it.
-    pub fn on_fit(&mut self, cfg: &IntegrityConfig, z2: f64) {
+    /// capped) of one radio update's readings at the cloud before it,
+    /// `local` the survey's own relative misfit there (1 when unknown or
+    /// not read: `fit_local_cell_m`), which divides the check's z^2 but
+    /// not the radius's.
+    pub fn on_fit(&mut self, cfg: &IntegrityConfig, z2: f64, local: f64) {
         if !self.fit_is_watched(cfg) || !z2.is_finite() {
             return;
         }
+        let checked = z2 / local.clamp(1.0, FIT_LOCAL_MAX);
         let avg = match self.fit_z2 {
-            Some(a) => a + cfg.fit_rate * (z2 - a),
-            None => z2,
+            Some(a) => a + cfg.fit_rate * (checked - a),
+            None => checked,
         };
         self.fit_z2 = Some(avg);
         self.fit_accuracy_z2 = Some(match self.fit_accuracy_z2 {
@@ -555,22 +572,22 @@ mod tests {
         let mut r = RadioIntegrity::for_model(true);
         r.restart(&cfg, true);
         for _ in 0..20 {
-            r.on_fit(&cfg, 1.2);
+            r.on_fit(&cfg, 1.2, 1.0);
         }
         assert_eq!(r.trust(), 1.0);
         for _ in 0..6 {
-            r.on_fit(&cfg, 4.0);
+            r.on_fit(&cfg, 4.0, 1.0);
         }
         assert!(r.trust() < 0.05, "trust {}", r.trust());
         assert!(r.trust() >= cfg.fit_min_trust);
         for _ in 0..10 {
-            r.on_fit(&cfg, 1.0);
+            r.on_fit(&cfg, 1.0, 1.0);
         }
         assert_eq!(r.trust(), 1.0);
         // a global start: unchecked by default, checked with the flag
         r.restart(&cfg, false);
         for _ in 0..10 {
-            r.on_fit(&cfg, 9.0);
+            r.on_fit(&cfg, 9.0, 1.0);
         }
         assert_eq!(r.trust(), 1.0);
         let global = IntegrityConfig {
@@ -578,20 +595,49 @@ mod tests {
             ..cfg.clone()
         };
         r.restart(&global, false);
-        r.on_fit(&global, 9.0);
+        r.on_fit(&global, 9.0, 1.0);
         assert!(r.trust() < 0.05, "trust {}", r.trust());
         // a radio map: off by default, on with `fit_free_z2`
         let mut m = RadioIntegrity::for_model(false);
         m.restart(&cfg, true);
-        m.on_fit(&cfg, 9.0);
+        m.on_fit(&cfg, 9.0, 1.0);
         assert_eq!(m.trust(), 1.0);
         let on = IntegrityConfig {
             fit_free_z2: 1.7,
             ..cfg
         };
         m.restart(&on, true);
-        m.on_fit(&on, 9.0);
+        m.on_fit(&on, 9.0, 1.0);
         assert!(m.trust() < 0.05, "trust {}", m.trust());
+    }
+
+    /// Guards `fit_local_cell_m`'s reading: where the survey itself
+    /// misfits the map (a relative level of 3), a walk's z^2 of 4 is read
+    /// as 4 / 3 and keeps full trust; the radius reads the raw z^2; a
+    /// level below 1 never makes the misfit larger.
+    #[test]
+    fn the_survey_s_own_misfit_divides_the_check_but_not_the_radius() {
+        let cfg = IntegrityConfig {
+            fit_free_z2: 1.7,
+            ..IntegrityConfig::default()
+        };
+        let (mut local, mut raw) = (
+            RadioIntegrity::for_model(false),
+            RadioIntegrity::for_model(false),
+        );
+        local.restart(&cfg, true);
+        raw.restart(&cfg, true);
+        for _ in 0..10 {
+            local.on_fit(&cfg, 4.0, 3.0);
+            raw.on_fit(&cfg, 4.0, 1.0);
+        }
+        assert_eq!(local.trust(), 1.0);
+        assert!(raw.trust() < 0.05, "trust {}", raw.trust());
+        assert_eq!(local.fit_accuracy_m(&cfg), raw.fit_accuracy_m(&cfg));
+        let mut low = RadioIntegrity::for_model(false);
+        low.restart(&cfg, true);
+        low.on_fit(&cfg, 4.0, 0.2);
+        assert!(low.trust() < 0.05, "trust {}", low.trust());
     }
 
     #[test]
@@ -621,10 +667,10 @@ mod tests {
         let mut m = RadioIntegrity::for_model(false);
         m.restart(&cfg, false);
         assert_eq!(m.fit_accuracy_m(&cfg), 0.0);
-        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 * 0.5);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 * 0.5, 1.0);
         assert_eq!(m.fit_accuracy_m(&cfg), 0.0);
         m.restart(&cfg, false);
-        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 0.5);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 0.5, 1.0);
         assert_eq!(m.trust(), 1.0);
         let want = cfg.fit_accuracy_m_per_z2 * 0.5;
         assert!(
@@ -637,23 +683,23 @@ mod tests {
             ..cfg.clone()
         };
         m.restart(&off, false);
-        m.on_fit(&off, 9.0);
+        m.on_fit(&off, 9.0, 1.0);
         assert_eq!(m.fit_accuracy_m(&off), 0.0);
         // one update's spike moves the radius by `fit_accuracy_rate` of
         // it, and the term never exceeds `fit_accuracy_max_m`
         m.restart(&cfg, false);
-        m.on_fit(&cfg, cfg.fit_accuracy_free_z2);
-        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 10.0);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2, 1.0);
+        m.on_fit(&cfg, cfg.fit_accuracy_free_z2 + 10.0, 1.0);
         let want = cfg.fit_accuracy_m_per_z2 * 10.0 * cfg.fit_accuracy_rate;
         assert!((m.fit_accuracy_m(&cfg) - want.min(cfg.fit_accuracy_max_m)).abs() < 1e-9);
         for _ in 0..100 {
-            m.on_fit(&cfg, 25.0);
+            m.on_fit(&cfg, 25.0, 1.0);
         }
         assert_eq!(m.fit_accuracy_m(&cfg), cfg.fit_accuracy_max_m);
         // the path-loss model has its own slope
         let mut p = RadioIntegrity::for_model(true);
         p.restart(&cfg, false);
-        p.on_fit(&cfg, cfg.fit_accuracy_free_z2_without_map + 1.0);
+        p.on_fit(&cfg, cfg.fit_accuracy_free_z2_without_map + 1.0, 1.0);
         let want = cfg.fit_accuracy_m_per_z2_without_map;
         assert!(
             (p.fit_accuracy_m(&cfg) - want).abs() < 1e-9,

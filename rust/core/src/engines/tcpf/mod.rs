@@ -40,7 +40,8 @@
 //! global start and its cells), `offsets` (the phone's RSSI offset),
 //! `floor` (floor votes and changes), `motion` (steps, online step scale),
 //! `magnetic` (the magnetic update), `survey_reach` (the distance to the
-//! survey's walks), `particle_count` (resampling, the adaptive count),
+//! survey's walks), `survey_fit` (the survey's own misfit to the map
+//! per place), `particle_count` (resampling, the adaptive count),
 //! `publish` (the published pose and its accuracy radius), `counts`
 //! (diagnostics).
 
@@ -60,6 +61,7 @@ mod radio_update;
 mod recovery;
 mod start;
 pub mod step_scale;
+mod survey_fit;
 mod survey_reach;
 
 use std::sync::Arc;
@@ -93,6 +95,7 @@ use publish::Publisher;
 use radio_update::Scratch;
 use recovery::RecoveryState;
 use start::StartState;
+use survey_fit::SurveyFit;
 use survey_reach::SurveyReach;
 
 /// The tightly coupled radio-likelihood particle filter. Its state is
@@ -138,6 +141,9 @@ pub struct TcpfEngine {
     /// The distance to the survey's walks, built at its first use
     /// (`survey_reach.rs`).
     reach: Option<SurveyReach>,
+    /// The survey's own misfit per place, built at its first use
+    /// (`survey_fit.rs`; `None` inside: the model has no reference scans).
+    survey_fit: Option<Option<SurveyFit>>,
     ble_period_ns: i64,
     fusion_period_ns: i64,
     stats: EngineStats,
@@ -203,6 +209,7 @@ impl TcpfEngine {
             magnetic: MagneticState::default(),
             scratch: Scratch::default(),
             reach: None,
+            survey_fit: None,
             ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,
             stats: EngineStats::default(),

@@ -122,7 +122,9 @@ impl TcpfEngine {
                 }
             }
             if n > 0 {
-                self.integrity.on_fit(&self.cfg.integrity, sum / n as f64);
+                let local = self.survey_fit_level(floor);
+                self.integrity
+                    .on_fit(&self.cfg.integrity, sum / n as f64, local);
             }
         }
         let mut log_l = std::mem::take(&mut self.scratch.log_l);

@@ -36,7 +36,10 @@
 //! few updates, rises well above its level where the model holds. Beyond
 //! `fit_free_z2` the radio's trust falls steeply and the steps and the
 //! walls carry the track until the fit comes back. Its trust multiplies
-//! the pull check's.
+//! the pull check's. With a radio map the misfit is read against the
+//! survey's own misfit around the cloud (`fit_local_cell_m`,
+//! `survey_fit.rs`), and it does not hold the re-seeding
+//! (`fit_reseed_min_trust` 0); with the path-loss model it does.
 //!
 //! [`min_trust`]: IntegrityConfig::min_trust
 
@@ -92,7 +95,7 @@ pub struct IntegrityConfig {
     /// The fit check also after a global start (false: only after a
     /// told start, `InitialPosition` or `set_position`).
     pub fit_after_global_start: bool,
-    /// A fit trust below `reseed_min_trust` holds the re-seeding, unless
+    /// A fit trust below `fit_reseed_min_trust` holds the re-seeding, unless
     /// the steps' wall kills (moving average, share of the moving
     /// particles) reach this: then the misfit is the cloud's (a wrong
     /// told start), not the model's.
@@ -105,6 +108,12 @@ pub struct IntegrityConfig {
     /// that where the survey itself misfits the map, a walk's misfit does
     /// not count as the map being wrong. m; 0 = off.
     pub fit_local_cell_m: f64,
+    /// A fit trust below this holds the re-seeding from the radio
+    /// (likelihood surface, anchors; see `fit_lost_wall_kill`), with a
+    /// radio map; `_without_map` with the path-loss model. 0 = the fit
+    /// check never holds it (it still tempers the radio).
+    pub fit_reseed_min_trust: f64,
+    pub fit_reseed_min_trust_without_map: f64,
     pub fit_z2_cap: f64,
     pub fit_rate: f64,
     pub fit_exponent: f64,
@@ -146,11 +155,13 @@ impl Default for IntegrityConfig {
             min_trust: 0.05,
             reseed_min_trust: 0.5,
             accuracy_share: 1.0,
-            fit_free_z2: 0.0,
+            fit_free_z2: 1.7,
             fit_free_z2_without_map: 1.7,
             fit_after_global_start: false,
             fit_lost_wall_kill: 0.5,
-            fit_local_cell_m: 0.0,
+            fit_local_cell_m: 4.0,
+            fit_reseed_min_trust: 0.0,
+            fit_reseed_min_trust_without_map: 0.5,
             fit_z2_cap: 25.0,
             fit_rate: 0.5,
             fit_exponent: 8.0,
@@ -190,6 +201,13 @@ impl IntegrityConfig {
             ("fit_min_trust", self.fit_min_trust, 0.001, 1.0),
             ("fit_lost_wall_kill", self.fit_lost_wall_kill, 0.0, 1.0),
             ("fit_local_cell_m", self.fit_local_cell_m, 0.0, 1000.0),
+            ("fit_reseed_min_trust", self.fit_reseed_min_trust, 0.0, 1.0),
+            (
+                "fit_reseed_min_trust_without_map",
+                self.fit_reseed_min_trust_without_map,
+                0.0,
+                1.0,
+            ),
             (
                 "fit_accuracy_m_per_z2",
                 self.fit_accuracy_m_per_z2,
@@ -468,6 +486,18 @@ impl RadioIntegrity {
         (self.trust * self.fit_trust).max(0.0)
     }
 
+    /// Whether the fit check holds the re-seeding now: its trust below
+    /// `fit_reseed_min_trust` (with a radio map) or its `_without_map`
+    /// twin (path-loss model).
+    pub fn fit_holds_reseed(&self, cfg: &IntegrityConfig) -> bool {
+        let min = if self.path_loss {
+            cfg.fit_reseed_min_trust_without_map
+        } else {
+            cfg.fit_reseed_min_trust
+        };
+        self.fit_trust < min
+    }
+
     /// The pull check's part of [`RadioIntegrity::trust`].
     pub fn pull_trust(&self) -> f64 {
         self.trust
@@ -564,7 +594,7 @@ mod tests {
     /// trust, a misfit well beyond it drops the trust to its floor within
     /// a few updates, the fit coming back restores it. The level is
     /// `fit_free_z2_without_map` for a path-loss model, `fit_free_z2`
-    /// (default 0: off) for a radio map; after a global start it reads
+    /// (0: off) for a radio map; after a global start it reads
     /// nothing unless `fit_after_global_start`.
     #[test]
     fn a_misfit_beyond_the_free_level_drops_the_trust_and_it_recovers() {
@@ -597,18 +627,18 @@ mod tests {
         r.restart(&global, false);
         r.on_fit(&global, 9.0, 1.0);
         assert!(r.trust() < 0.05, "trust {}", r.trust());
-        // a radio map: off by default, on with `fit_free_z2`
+        // a radio map: on by default (`fit_free_z2`), off at 0
         let mut m = RadioIntegrity::for_model(false);
         m.restart(&cfg, true);
         m.on_fit(&cfg, 9.0, 1.0);
-        assert_eq!(m.trust(), 1.0);
-        let on = IntegrityConfig {
-            fit_free_z2: 1.7,
+        assert!(m.trust() < 0.05, "trust {}", m.trust());
+        let off = IntegrityConfig {
+            fit_free_z2: 0.0,
             ..cfg
         };
-        m.restart(&on, true);
-        m.on_fit(&on, 9.0, 1.0);
-        assert!(m.trust() < 0.05, "trust {}", m.trust());
+        m.restart(&off, true);
+        m.on_fit(&off, 9.0, 1.0);
+        assert_eq!(m.trust(), 1.0);
     }
 
     /// Guards `fit_local_cell_m`'s reading: where the survey itself

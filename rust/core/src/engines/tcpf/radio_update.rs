@@ -147,7 +147,7 @@ impl TcpfEngine {
         let ic = &self.cfg.integrity;
         let lost = self.recovery.kill_ema >= ic.fit_lost_wall_kill;
         let trusted = self.integrity.pull_trust() >= ic.reseed_min_trust
-            && (lost || self.integrity.fit_trust() >= ic.reseed_min_trust);
+            && (lost || !self.integrity.fit_holds_reseed(ic));
         let fit = RadioFit {
             mean_l,
             cloud_ll,

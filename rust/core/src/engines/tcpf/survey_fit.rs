@@ -155,7 +155,8 @@ impl FloorGrid {
         }
         let mut cell_m = cell_m;
         let cells = |c: f64| ((hi.x - lo.x) / c + 1.0) * ((hi.y - lo.y) / c + 1.0);
-        while cells(cell_m) > MAX_CELLS as f64 {
+        // (an infinite extent ends with infinite cells: one cell)
+        while cells(cell_m) > MAX_CELLS as f64 && cell_m.is_finite() {
             cell_m *= 2.0;
         }
         let nx = ((hi.x - lo.x) / cell_m).floor() as usize + 1;
@@ -207,5 +208,10 @@ mod tests {
     fn a_huge_floor_gets_coarser_cells_not_more_memory() {
         let g = FloorGrid::of_points(&[(Vec2::zeros(), 1.0), (Vec2::new(1e6, 1e6), 1.0)], 4.0);
         assert!(g.acc.len() <= 4 * MAX_CELLS, "{} cells", g.acc.len());
+        let far = FloorGrid::of_points(
+            &[(Vec2::new(-1e308, 0.0), 1.0), (Vec2::new(1e308, 0.0), 1.0)],
+            4.0,
+        );
+        assert!(far.acc.len() <= 4 * MAX_CELLS, "{} cells", far.acc.len());
     }
 }

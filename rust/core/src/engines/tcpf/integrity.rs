@@ -253,6 +253,16 @@ impl IntegrityConfig {
         }
     }
 
+    /// The fit trust below which the fit check holds the re-seeding, for
+    /// a path-loss model (`path_loss`) or a radio map (0: never).
+    pub fn fit_reseed_min_for(&self, path_loss: bool) -> f64 {
+        if path_loss {
+            self.fit_reseed_min_trust_without_map
+        } else {
+            self.fit_reseed_min_trust
+        }
+    }
+
     /// The fit check's free level for a path-loss model (`path_loss`) or
     /// a radio map (0: off).
     pub fn fit_free_for(&self, path_loss: bool) -> f64 {
@@ -487,15 +497,9 @@ impl RadioIntegrity {
     }
 
     /// Whether the fit check holds the re-seeding now: its trust below
-    /// `fit_reseed_min_trust` (with a radio map) or its `_without_map`
-    /// twin (path-loss model).
+    /// [`IntegrityConfig::fit_reseed_min_for`] the model.
     pub fn fit_holds_reseed(&self, cfg: &IntegrityConfig) -> bool {
-        let min = if self.path_loss {
-            cfg.fit_reseed_min_trust_without_map
-        } else {
-            cfg.fit_reseed_min_trust
-        };
-        self.fit_trust < min
+        self.fit_trust < cfg.fit_reseed_min_for(self.path_loss)
     }
 
     /// The pull check's part of [`RadioIntegrity::trust`].

@@ -5,7 +5,7 @@
 //! capped as the fit check caps it). Where the survey's own scans misfit
 //! the map, a walk's readings misfit it as much without the map being
 //! wrong there; the fit check reads its z^2 relative to this level
-//! (`integrity.fit_local_level`).
+//! (`integrity.fit_local_cell_m`).
 //!
 //! In-sample (the map was smoothed from these scans): the level's absolute
 //! value is below what a new walk meets, so only its ratio to the site's
@@ -155,8 +155,7 @@ impl FloorGrid {
         }
         let mut cell_m = cell_m;
         let cells = |c: f64| ((hi.x - lo.x) / c + 1.0) * ((hi.y - lo.y) / c + 1.0);
-        // (an infinite extent ends with infinite cells: one cell)
-        while cells(cell_m) > MAX_CELLS as f64 && cell_m.is_finite() {
+        while cells(cell_m) > MAX_CELLS as f64 {
             cell_m *= 2.0;
         }
         let nx = ((hi.x - lo.x) / cell_m).floor() as usize + 1;

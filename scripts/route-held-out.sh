@@ -18,10 +18,15 @@
 #                   further paths left out instead), and the odd halves of
 #                   IPIN and ILC F1 with the even half's site and radio map
 #                   (docs/tcpf.md "Current figures").
+#   check set       ILC site2/F4 odd with the even half's site and radio map:
+#                   its test waypoints lie a median 16.5 m from the survey's
+#                   (a route the survey did not walk). No default is chosen
+#                   on it: `check` scores a default once it is chosen, so a
+#                   figure not tuned on stands beside the protocol's.
 #
 # Usage (repository root, after `cargo build --release -p fpbp-cli`):
 #   scripts/route-held-out.sh build
-#       imports the two sites into out/sites/ (when missing) and calibrates
+#       imports the three sites into out/sites/ (when missing) and calibrates
 #       every fold's site and radio map (~10 min on 2 cores)
 #   scripts/route-held-out.sh eval NAME [ENGINES] [SEEDS] [EVAL ARGS...]
 #       e.g. scripts/route-held-out.sh eval defaults
@@ -34,13 +39,18 @@
 #       accuracy radius, p80, each seed's mean) and the mean of the set
 #       means over the held-out and over the surveyed sets; also written to
 #       out/protocol/NAME.md.
+#   scripts/route-held-out.sh check NAME [ENGINES] [SEEDS] [EVAL ARGS...]
+#       the check set, both starts (STARTS as for eval), with `pdr` and
+#       `scan-knn` beside ENGINES (`pdr` always from the true start);
+#       out/protocol/check-NAME.md. Not for
+#       choosing between variants: run it on the one chosen.
 # RADIO_MAP=0 scores without the radio maps (tcpf on each fold's path-loss
 # model); FOLDS_VARIANT as in scripts/lib/folds.sh (folds built with other
 # `fpbp calibrate` settings).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib/folds.sh
-usage="usage: route-held-out.sh build | eval NAME [ENGINES] [SEEDS] [EVAL ARGS...]"
+usage="usage: route-held-out.sh build | eval|check NAME [ENGINES] [SEEDS] [EVAL ARGS...]"
 mode=${1:?$usage}
 
 # The odd half of SET scored with a survey of its even half: out/odd/SET/
@@ -69,15 +79,36 @@ if [ "$mode" = build ]; then
     scripts/survey-coverage.sh build f1
     build_odd ipin
     build_odd f1
+    [ -f out/sites/ilc-site2-F4/site.json ] ||
+        "$F" import ilc "$D/ilc/site2/F4" --out out/sites/ilc-site2-F4 >/dev/null
+    build_odd f4
     exit 0
 fi
-[ "$mode" = eval ] || { echo "$usage" >&2; exit 2; }
+case $mode in eval | check) ;; *) echo "$usage" >&2 && exit 2 ;; esac
 name=${2:?$usage}
 engines=${3:-tcpf}
 seeds=${4:-1-5}
 extra=("${@:5}")
 V=$VARIANT
 rows=()
+if [ "$mode" = check ]; then
+    for start in ${STARTS:-own truth}; do
+        case $start in
+        own) init=() ;;
+        truth) init=(--init truth) ;;
+        *) echo "STARTS: own and / or truth, not $start" >&2 && exit 2 ;;
+        esac
+        n=check-$name-$start
+        echo "== $start start: ILC F4 odd half (check set)" >&2
+        mkdir -p "$(odd_dir f4)-eval/$n"
+        eval_fold "$(odd_dir f4)" "$(odd_dir f4)-eval/$n/odd" "$engines,pdr,scan-knn" "$seeds" \
+            "${init[@]}" "${extra[@]}"
+        rows+=("ILC F4 odd half (check set, not tuned on)|held out|$start|$(odd_dir f4)-eval/$n|odd")
+    done
+    mkdir -p out/protocol
+    python3 scripts/lib/protocol_table.py "${rows[@]}" | tee "out/protocol/check-$name.md"
+    exit 0
+fi
 for start in ${STARTS:-own truth}; do
     case $start in
     own) init=() ;;

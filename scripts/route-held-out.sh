@@ -101,7 +101,9 @@ if [ "$mode" = check ]; then
         n=check-$name-$start
         echo "== $start start: ILC F4 odd half (check set)" >&2
         mkdir -p "$(odd_dir f4)-eval/$n"
-        eval_fold "$(odd_dir f4)" "$(odd_dir f4)-eval/$n/odd" "$engines,pdr,scan-knn" "$seeds" \
+        beside=pdr,scan-knn
+        [ "${RADIO_MAP:-1}" = 0 ] && beside=pdr # scan-knn needs the radio map
+        eval_fold "$(odd_dir f4)" "$(odd_dir f4)-eval/$n/odd" "$engines,$beside" "$seeds" \
             "${init[@]}" "${extra[@]}"
         rows+=("ILC F4 odd half (check set, not tuned on)|held out|$start|$(odd_dir f4)-eval/$n|odd")
     done

@@ -442,17 +442,21 @@ fn wing_means(runs: &[&WingRun]) -> (usize, usize, Vec<f64>) {
 /// - The pull check (`tcpf.integrity.enabled`): at most 0.8 x the error
 ///   without any check (it does not reach `pdr`: docs/lab/tcpf-radio-trust.md).
 ///
-/// Guards both checks: an option that changes nothing, or a trust that
-/// never drops, fails. Figures printed with `--nocapture` (seeds 1-8:
-/// fit check 5.31 m, pull check 12.16 m, neither 19.44 m, `pdr` 5.65 m).
+/// Guards both checks, each alone (the told start's reach off in every
+/// run): an option that changes nothing, or a trust that never drops,
+/// fails. Figures printed with `--nocapture` (seeds 1-8: fit check 5.31
+/// m, pull check 12.16 m, neither 19.44 m, `pdr` 5.65 m).
 #[test]
 fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
     let site = demo_site();
     let walks = wing_walks(&site);
     // the fit check is on by default with the path-loss model
     // (`fit_free_z2_without_map`), as here; the other runs turn it off
-    let fit_cfg = EngineConfig::default();
-    let mut off_cfg = EngineConfig::default();
+    // the checks alone: without the told start's reach (`told_reach_m`,
+    // tested below), which bounds all three runs
+    let mut fit_cfg = EngineConfig::default();
+    fit_cfg.tcpf.told_reach_m = 0.0;
+    let mut off_cfg = fit_cfg.clone();
     off_cfg.tcpf.integrity.fit_free_z2_without_map = 0.0;
     let mut pull_cfg = off_cfg.clone();
     pull_cfg.tcpf.integrity.enabled = true;
@@ -479,6 +483,41 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
         pi < po - 0.02,
         "pull check's trust in the wing {pi:.2}, outside {po:.2}"
     );
+}
+
+/// The told start's reach (`tcpf.told_reach_m` 3 m +
+/// `told_reach_per_walked` 0.3 x the distance walked, `told_reach_weight`
+/// 10; on by default) in the same wrong wing, alone (the fit check off):
+/// the radio cannot carry a cloud told where it started beyond the steps'
+/// drift from the dead-reckoned track, so the error in the wing is at most
+/// 0.9 x the error without the reach (measured 16.02 m against 19.44,
+/// seeds 1-8: the walks are minutes long, and the reach grows with them
+/// to the wing's size; the walls also release it where they kill the
+/// cloud); with the defaults (the fit check too) within 1.1 x `pdr`'s
+/// (5.31 m against 5.65: the fit check does the work here). Figures
+/// printed with `--nocapture`.
+#[test]
+fn a_told_start_is_not_carried_beyond_the_steps_reach() {
+    let site = demo_site();
+    let walks = wing_walks(&site);
+    let mut reach_cfg = EngineConfig::default();
+    reach_cfg.tcpf.integrity.fit_free_z2_without_map = 0.0;
+    let mut off_cfg = reach_cfg.clone();
+    off_cfg.tcpf.told_reach_m = 0.0;
+    let reach = wing_run(&site, &walks, Some(&reach_cfg), None);
+    let off = wing_run(&site, &walks, Some(&off_cfg), None);
+    let def = wing_run(&site, &walks, Some(&EngineConfig::default()), None);
+    let pdr = wing_run(&site, &walks, None, None);
+    let (both, n, means) = wing_means(&[&reach, &off, &def, &pdr]);
+    let [r, o, d, q] = means[..] else {
+        unreachable!()
+    };
+    eprintln!(
+        "wing ({both} of {n} points): told reach alone {r:.2} m, neither {o:.2} m, defaults \
+         {d:.2} m, pdr {q:.2} m"
+    );
+    assert!(r <= 0.9 * o, "told reach {r:.2} m, without {o:.2} m");
+    assert!(d <= 1.1 * q, "defaults {d:.2} m, pdr {q:.2} m");
 }
 
 /// A radio map surveyed wrong over the east wing: four simulated survey
@@ -530,13 +569,15 @@ fn wrong_wing_map(site: &Site) -> Arc<dyn fpbp_core::radio::RadioModel> {
 /// wing ([`wrong_wing_map`]), walks started at their first truth point.
 /// - The defaults (the fit check with a map, `fit_free_z2` 1.7, read
 ///   against the survey's own misfit, `fit_local_cell_m` 4, never holding
-///   the re-seeding, `fit_reseed_min_trust` 0): the track's error in the
-///   wing within 1.1 x `pdr`'s (measured 5.25 m against 5.65) and the
-///   radio's trust lower there than outside (0.47 / 0.93): the survey's
-///   scans fit the wrong map in the wing, so the local level does not
-///   excuse the walk's misfit there.
-/// - Without the fit check (`fit_free_z2` 0, the earlier default): more
-///   error in the wing (measured 5.69 m) and a trust of 1 in and out.
+///   the re-seeding, `fit_reseed_min_trust` 0; with the told start's
+///   reach, `told_reach_m`): the track's error in the wing within 1.1 x
+///   `pdr`'s (measured 4.21 m against 5.65; 5.25 m before the reach) and
+///   the radio's trust lower there than outside (0.62 / 0.96): the
+///   survey's scans fit the wrong map in the wing, so the local level does
+///   not excuse the walk's misfit there.
+/// - Without the fit check (`fit_free_z2` 0, the earlier default; the
+///   reach on): more error in the wing (measured 5.25 m) and a trust of 1
+///   in and out.
 ///
 /// Figures printed with `--nocapture`.
 #[test]

@@ -71,6 +71,22 @@ pub struct TcpfConfig {
     /// walls the steps fit. A tap on the map outranks a radio that is
     /// biased away from the survey's routes.
     pub recovery_told_open_floor: bool,
+    /// After a told start (`InitialPosition`, `set_position`): the told
+    /// position moved by every step since (no walls, no radio) and a reach
+    /// around it of `told_reach_m` + `told_reach_per_walked` x the distance
+    /// the steps walked since (`told_reach.rs`). A walker told where it
+    /// stood is within the steps' drift of that point, whatever a radio
+    /// biased off the survey's routes says: re-seeding draws only from
+    /// the surface's cells within the reach, and each radio update takes
+    /// `told_reach_weight` x ((d - reach) / reach)^2 / 2 off the
+    /// log-likelihood of a particle d m from the point beyond it. m; 0 =
+    /// off (as after a global start, which has no reach; nor has a floor
+    /// other than the told one).
+    pub told_reach_m: f64,
+    /// See `told_reach_m`, m per m walked.
+    pub told_reach_per_walked: f64,
+    /// See `told_reach_m` (0 = only the re-seeding is bounded).
+    pub told_reach_weight: f64,
     /// The radio-alone test also runs every this many radio updates
     /// without a likelihood dip (0 = only after a dip; each run evaluates
     /// the whole surface).
@@ -402,6 +418,9 @@ impl Default for TcpfConfig {
             recovery_radio_alone_margin: 20.0,
             recovery_global_radio_alone_margin: 8.0,
             recovery_told_open_floor: false,
+            told_reach_m: 3.0,
+            told_reach_per_walked: 0.3,
+            told_reach_weight: 10.0,
             recovery_check_every: 0,
             floor_switch_votes: 3,
             floor_snap_m: 5.0,
@@ -490,6 +509,14 @@ impl TcpfConfig {
                 0.0,
                 1e6,
             ),
+            ("told_reach_m", self.told_reach_m, 0.0, 1e4),
+            (
+                "told_reach_per_walked",
+                self.told_reach_per_walked,
+                0.0,
+                10.0,
+            ),
+            ("told_reach_weight", self.told_reach_weight, 0.0, 1e6),
             ("cell_m", self.cell_m, 0.25, 50.0),
             ("start_wait_ble_s", self.start_wait_ble_s, 0.0, 600.0),
             ("recovery_alpha_slow", self.recovery_alpha_slow, 0.0, 1.0),

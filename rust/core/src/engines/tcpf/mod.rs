@@ -41,7 +41,8 @@
 //! `floor` (floor votes and changes), `motion` (steps, online step scale),
 //! `magnetic` (the magnetic update), `survey_reach` (the distance to the
 //! survey's walks), `survey_fit` (the survey's own misfit to the map
-//! per place), `particle_count` (resampling, the adaptive count),
+//! per place), `told_reach` (how far a told start's walker can be from
+//! its dead-reckoned track), `particle_count` (resampling, the adaptive count),
 //! `publish` (the published pose and its accuracy radius), `counts`
 //! (diagnostics).
 
@@ -63,6 +64,7 @@ mod start;
 pub mod step_scale;
 mod survey_fit;
 mod survey_reach;
+mod told_reach;
 
 use std::sync::Arc;
 
@@ -97,6 +99,7 @@ use recovery::RecoveryState;
 use start::StartState;
 use survey_fit::SurveyFit;
 use survey_reach::SurveyReach;
+use told_reach::ToldReach;
 
 /// The tightly coupled radio-likelihood particle filter. Its state is
 /// grouped by concern; each group lives in the module that works on it.
@@ -141,6 +144,8 @@ pub struct TcpfEngine {
     /// The distance to the survey's walks, built at its first use
     /// (`survey_reach.rs`).
     reach: Option<SurveyReach>,
+    /// The dead-reckoned told position and its reach (`told_reach.rs`).
+    told_reach: ToldReach,
     /// The survey's own misfit per place, built at its first use
     /// (`survey_fit.rs`; `None` inside: the model has no reference scans).
     survey_fit: Option<Option<SurveyFit>>,
@@ -209,6 +214,7 @@ impl TcpfEngine {
             magnetic: MagneticState::default(),
             scratch: Scratch::default(),
             reach: None,
+            told_reach: ToldReach::default(),
             survey_fit: None,
             ble_period_ns: i64::from(config.tasks.radio_period_ms) * 1_000_000,
             fusion_period_ns: i64::from(config.tasks.fusion_period_ms) * 1_000_000,

@@ -23,6 +23,7 @@ impl TcpfEngine {
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
         self.integrity.on_step(length_m);
+        self.told_reach.on_step(length_m, yaw_rad);
         if self.cfg.anchors.query_period_s > 0.0 {
             // only reused anchors move by it
             self.anchors.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;

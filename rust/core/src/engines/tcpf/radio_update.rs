@@ -131,6 +131,7 @@ impl TcpfEngine {
         log_l.iter_mut().for_each(|u| *u *= alpha);
         let support = self.weigh_by_anchors(anchors, floor, trust, &mut log_l);
         self.weigh_by_survey_reach(floor, trust, &mut log_l);
+        self.weigh_by_told_reach(floor, &mut log_l);
         self.pf.weight_log(&log_l);
         self.scratch.log_l = log_l;
         self.counts.radio_updates += 1;

@@ -129,8 +129,11 @@ impl TcpfEngine {
             && self
                 .surface_gap_bound(floor, meas, cloud_ll)
                 .is_none_or(|b| b > needed)
-            && let Some(surf) = self.surface(floor, meas, missing, &[], self.profile_prior(true))
-            && let gap = surf.lse - surf.w.iter().sum::<f64>().ln() - cloud_ll
+            && let Some(mut surf) =
+                self.surface(floor, meas, missing, &[], self.profile_prior(true))
+            && let best_ll = surf.lse - surf.w.iter().sum::<f64>().ln()
+            && let Some(kept_ln) = self.keep_within_told_reach(floor, &mut surf)
+            && let gap = best_ll + kept_ln - cloud_ll
             && let Some(fraction) = if gap > alone {
                 Some(self.cfg.recovery_max_fraction)
             } else {

@@ -70,6 +70,7 @@ impl TcpfEngine {
         self.pf
             .init_at(p, 0.5, |q| map.is_none_or(|m| m.is_walkable(q)));
         self.recovery.told_start = true;
+        self.told_reach.restart(at.floor, p);
         self.publisher.global_start = None;
         self.integrity.restart(&self.cfg.integrity, true);
         self.online_step.drop_window();
@@ -213,6 +214,7 @@ impl TcpfEngine {
         self.publisher.hold_runs = 0;
         self.counts.global_starts += 1;
         self.recovery.told_start = false;
+        self.told_reach.forget();
         self.integrity.restart(&self.cfg.integrity, false);
         self.publisher.last_radio_t_ns = Some(t_ns);
         true

@@ -1,0 +1,132 @@
+//! After a told start: how far the walker can be from where the steps
+//! alone carried the told position (`told_reach_m`). A walker
+//! told where it stood (a tap on the map, `InitialPosition`) is within the
+//! steps' drift of its dead-reckoned track, whatever a radio biased away
+//! from the survey's routes says; re-seeding draws only from there, and
+//! (`told_reach_weight`) particles beyond it lose weight at each radio
+//! update. Unless the walls say the told position was wrong: then the
+//! reach is dropped.
+
+use super::TcpfEngine;
+use super::start::Surface;
+use crate::Vec2;
+
+/// The told position moved by every step since (no walls, no radio).
+#[derive(Debug, Clone, Default)]
+pub(super) struct ToldReach {
+    /// Floor and dead-reckoned position; `None` after a global start or a
+    /// floor change.
+    at: Option<(i32, Vec2)>,
+    /// Distance the steps walked since the told position, m.
+    walked_m: f64,
+}
+
+impl ToldReach {
+    /// A told position `p` on `floor`.
+    pub(super) fn restart(&mut self, floor: i32, p: Vec2) {
+        self.at = Some((floor, p));
+        self.walked_m = 0.0;
+    }
+
+    /// A cloud the radio placed, or moved to another floor: no reach.
+    pub(super) fn forget(&mut self) {
+        self.at = None;
+    }
+
+    /// One step of `length_m` toward `yaw_rad`.
+    pub(super) fn on_step(&mut self, length_m: f64, yaw_rad: f64) {
+        if let Some((_, p)) = &mut self.at {
+            *p += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
+            self.walked_m += length_m;
+        }
+    }
+
+    /// The dead-reckoned point and the reach around it on `floor`, m:
+    /// `base_m` + `per_walked` x the distance walked; `None` off
+    /// (`base_m` 0), after a global start or on another floor.
+    fn reach(&self, floor: i32, base_m: f64, per_walked: f64) -> Option<(Vec2, f64)> {
+        match self.at {
+            Some((f, p)) if f == floor && base_m > 0.0 => {
+                Some((p, base_m + per_walked * self.walked_m))
+            }
+            _ => None,
+        }
+    }
+}
+
+impl TcpfEngine {
+    fn told_reach_on(&self, floor: i32) -> Option<(Vec2, f64)> {
+        self.told_reach
+            .reach(floor, self.cfg.told_reach_m, self.cfg.told_reach_per_walked)
+    }
+
+    /// Zeroes the weights of `surf`'s cells on `floor` beyond the told
+    /// reach, and returns the log of the largest weight kept (the best
+    /// kept cell's log-likelihood less the best cell's, at most 0); `None`
+    /// when no cell is within reach. Without a reach `surf` is unchanged
+    /// and the result 0.
+    pub(super) fn keep_within_told_reach(&self, floor: i32, surf: &mut Surface) -> Option<f64> {
+        let Some((centre, reach)) = self.told_reach_on(floor) else {
+            return Some(0.0);
+        };
+        let mut best = 0.0f64;
+        for (c, w) in surf.cells.iter().zip(surf.w.iter_mut()) {
+            if (c - centre).norm() > reach {
+                *w = 0.0;
+            } else {
+                best = best.max(*w);
+            }
+        }
+        (best > 0.0).then(|| best.ln())
+    }
+
+    /// Takes `told_reach_weight` x ((d - reach) / reach)^2 / 2 off the
+    /// log-likelihood of each particle `d` m from the dead-reckoned point
+    /// beyond the reach (a soft edge as wide as the reach itself).
+    ///
+    /// Once the walls say the cloud is lost (the moving share of particles
+    /// a step kills at walls at least `recovery_min_wall_kill`, which lets
+    /// the walls re-seed the cloud), the
+    /// told position was wrong: the reach is dropped for good.
+    pub(super) fn weigh_by_told_reach(&mut self, floor: i32, log_l: &mut [f64]) {
+        if self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill {
+            self.told_reach.forget();
+        }
+        let w = self.cfg.told_reach_weight;
+        if w <= 0.0 {
+            return;
+        }
+        let Some((centre, reach)) = self.told_reach_on(floor) else {
+            return;
+        };
+        for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
+            let beyond = (p - centre).norm() - reach;
+            if beyond > 0.0 {
+                let z = beyond / reach;
+                *u -= 0.5 * w * z * z;
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reach_follows_the_steps_and_grows_with_the_walk() {
+        let mut r = ToldReach::default();
+        assert!(r.reach(0, 3.0, 0.3).is_none(), "no told position yet");
+        r.restart(0, Vec2::new(1.0, 2.0));
+        r.on_step(0.5, 0.0);
+        r.on_step(0.5, std::f64::consts::FRAC_PI_2);
+        let (p, reach) = r.reach(0, 3.0, 0.3).unwrap();
+        assert!((p - Vec2::new(1.5, 2.5)).norm() < 1e-12, "{p:?}");
+        assert!((reach - 3.3).abs() < 1e-12, "{reach}");
+        assert!(r.reach(1, 3.0, 0.3).is_none(), "another floor");
+        assert!(r.reach(0, 0.0, 0.3).is_none(), "off");
+        r.forget();
+        r.on_step(1.0, 0.0);
+        assert!(r.reach(0, 3.0, 0.3).is_none(), "forgotten");
+    }
+}

@@ -85,9 +85,9 @@ impl TcpfEngine {
     /// beyond the reach (a soft edge as wide as the reach itself).
     ///
     /// Once the walls say the cloud is lost (the moving share of particles
-    /// a step kills at walls at least `recovery_min_wall_kill`, which lets
-    /// the walls re-seed the cloud), the
-    /// told position was wrong: the reach is dropped for good.
+    /// a step kills at walls at least `recovery_min_wall_kill`, the level
+    /// at which the walls let the surface re-seed it), the told position
+    /// was wrong: the reach is dropped for good.
     pub(super) fn weigh_by_told_reach(&mut self, floor: i32, log_l: &mut [f64]) {
         if self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill {
             self.told_reach.forget();

@@ -85,6 +85,14 @@ if [ "$mode" = build ]; then
     exit 0
 fi
 case $mode in eval | check) ;; *) echo "$usage" >&2 && exit 2 ;; esac
+# init_of START: the eval arguments of a start (own or truth) into init.
+init_of() {
+    case $1 in
+    own) init=() ;;
+    truth) init=(--init truth) ;;
+    *) echo "STARTS: own and / or truth, not $1" >&2 && exit 2 ;;
+    esac
+}
 name=${2:?$usage}
 engines=${3:-tcpf}
 seeds=${4:-1-5}
@@ -93,11 +101,7 @@ V=$VARIANT
 rows=()
 if [ "$mode" = check ]; then
     for start in ${STARTS:-own truth}; do
-        case $start in
-        own) init=() ;;
-        truth) init=(--init truth) ;;
-        *) echo "STARTS: own and / or truth, not $start" >&2 && exit 2 ;;
-        esac
+        init_of "$start"
         n=check-$name-$start
         echo "== $start start: ILC F4 odd half (check set)" >&2
         mkdir -p "$(odd_dir f4)-eval/$n"
@@ -112,11 +116,7 @@ if [ "$mode" = check ]; then
     exit 0
 fi
 for start in ${STARTS:-own truth}; do
-    case $start in
-    own) init=() ;;
-    truth) init=(--init truth) ;;
-    *) echo "STARTS: own and / or truth, not $start" >&2 && exit 2 ;;
-    esac
+    init_of "$start"
     n=$name-$start
     echo "== $start start: IPIN tuning folds" >&2
     scripts/tuning-folds.sh eval ipin "$n" "$engines" "$seeds" "${init[@]}" "${extra[@]}" >/dev/null

@@ -59,6 +59,14 @@ pub(super) struct RadioFit {
 }
 
 impl TcpfEngine {
+    /// Whether the walls say the cloud is lost: the moving share of
+    /// particles a step kills at walls is at least
+    /// `recovery_min_wall_kill` (the re-seeding's consent, and what drops
+    /// a told start's reach).
+    pub(super) fn walls_say_lost(&self) -> bool {
+        self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill
+    }
+
     /// After a radio update on `floor` with `meas` / `missing`: re-seeds
     /// part of the cloud from the likelihood surface when the monitor saw
     /// a dip and the walls agree, or when the surface beats the cloud by
@@ -107,8 +115,7 @@ impl TcpfEngine {
         let open = !self.recovery.walled.get(&floor).copied().unwrap_or(false);
         let radio_decides =
             open && !(self.recovery.told_start && self.cfg.recovery_told_open_floor);
-        let walls_agree =
-            self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill || radio_decides;
+        let walls_agree = self.walls_say_lost() || radio_decides;
         // the gap that re-seeds: past `recovery_radio_alone_margin`, or
         // with a dip and the walls' consent past `recovery_margin`; when
         // the bound says the gap cannot pass it, the surface (the largest

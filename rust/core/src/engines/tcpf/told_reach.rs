@@ -89,7 +89,7 @@ impl TcpfEngine {
     /// at which the walls let the surface re-seed it), the told position
     /// was wrong: the reach is dropped for good.
     pub(super) fn weigh_by_told_reach(&mut self, floor: i32, log_l: &mut [f64]) {
-        if self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill {
+        if self.walls_say_lost() {
             self.told_reach.forget();
         }
         let w = self.cfg.told_reach_weight;

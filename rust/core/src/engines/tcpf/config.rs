@@ -247,6 +247,10 @@ pub struct AnchorConfig {
     /// floor move the track there even when the barometer saw no change
     /// (a wrong start floor is otherwise kept for good; 0 = never).
     pub floor_force_votes: u32,
+    /// `floor_force_votes` also after a told start. False: the told floor
+    /// changes only as the barometer says, until the walls say the told
+    /// position was wrong (when the told reach is dropped).
+    pub floor_force_after_told: bool,
     /// With reference scans, the start waits up to this long (after the
     /// first radio update) for a query with candidates, s.
     pub start_wait_s: f64,
@@ -326,6 +330,7 @@ impl Default for AnchorConfig {
             start_floor: true,
             floor_vote_share: 0.5,
             floor_force_votes: 5,
+            floor_force_after_told: false,
             start_wait_s: 5.0,
             far_db: 12.0,
             far_db_told: 12.0,

@@ -60,7 +60,16 @@ impl TcpfEngine {
         if let Some(v) = vote {
             self.floors.on_ble_floor(t_ns, v);
         }
-        let force = self.cfg.anchors.floor_force_votes;
+        let ac = &self.cfg.anchors;
+        // a told floor holds against the anchors (whose votes, on a route
+        // the survey never walked, can name a floor above or below) until
+        // the walls say the told position was wrong
+        let told = self.recovery.told_start && self.told_reach.held();
+        let force = if told && !ac.floor_force_after_told {
+            0
+        } else {
+            ac.floor_force_votes
+        };
         let anchor_vote = vote.filter(|_| !anchors.is_empty());
         self.votes.anchor_run = match (anchor_vote, self.votes.anchor_run) {
             (Some(v), _) if v == self.floor => None,

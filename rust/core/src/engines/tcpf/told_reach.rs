@@ -33,6 +33,12 @@ impl ToldReach {
         self.at = None;
     }
 
+    /// Whether a told position is held: told, and neither a global start
+    /// nor the walls have dropped it since.
+    pub(super) fn held(&self) -> bool {
+        self.at.is_some()
+    }
+
     /// One step of `length_m` toward `yaw_rad`.
     pub(super) fn on_step(&mut self, length_m: f64, yaw_rad: f64) {
         if let Some((_, p)) = &mut self.at {

@@ -216,6 +216,8 @@ fn engine_walk(c: &mut Criterion) {
     fit_off.tcpf.integrity.fit_accuracy_m_per_z2 = 0.0;
     fit_off.tcpf.integrity.fit_free_z2_without_map = 0.0;
     fit_off.tcpf.integrity.fit_accuracy_m_per_z2_without_map = 0.0;
+    let mut reach_off = EngineConfig::default();
+    reach_off.tcpf.told_reach_m = 0.0;
     let with_map = EngineData {
         radio_map: Some(survey_map(&site)),
         ..EngineData::default()
@@ -268,6 +270,18 @@ fn engine_walk(c: &mut Criterion) {
             (
                 "told start, radio update, fit off",
                 &fit_off,
+                told_all,
+                last_ns,
+                Timed::RadioUpdate,
+            ),
+        );
+        // the told start's reach (`told_reach_m`): one distance per
+        // particle per radio update
+        cases.insert(
+            2,
+            (
+                "told start, radio update, told reach off",
+                &reach_off,
                 told_all,
                 last_ns,
                 Timed::RadioUpdate,

@@ -64,8 +64,7 @@ impl TcpfEngine {
         // a told floor holds against the anchors (whose votes, on a route
         // the survey never walked, can name a floor above or below) until
         // the walls say the told position was wrong
-        let told = self.recovery.told_start && self.told_reach.held();
-        let force = if told && !ac.floor_force_after_told {
+        let force = if self.told_reach.held() && !ac.floor_force_after_told {
             0
         } else {
             ac.floor_force_votes

@@ -34,7 +34,7 @@ impl ToldReach {
     }
 
     /// Whether a told position is held: told, and neither a global start
-    /// nor the walls have dropped it since.
+    /// nor the walls have dropped it since (also with the reach off).
     pub(super) fn held(&self) -> bool {
         self.at.is_some()
     }
@@ -123,7 +123,9 @@ mod tests {
     fn the_reach_follows_the_steps_and_grows_with_the_walk() {
         let mut r = ToldReach::default();
         assert!(r.reach(0, 3.0, 0.3).is_none(), "no told position yet");
+        assert!(!r.held());
         r.restart(0, Vec2::new(1.0, 2.0));
+        assert!(r.held());
         r.on_step(0.5, 0.0);
         r.on_step(0.5, std::f64::consts::FRAC_PI_2);
         let (p, reach) = r.reach(0, 3.0, 0.3).unwrap();
@@ -131,7 +133,9 @@ mod tests {
         assert!((reach - 3.3).abs() < 1e-12, "{reach}");
         assert!(r.reach(1, 3.0, 0.3).is_none(), "another floor");
         assert!(r.reach(0, 0.0, 0.3).is_none(), "off");
+        assert!(r.held(), "off or on another floor, still told");
         r.forget();
+        assert!(!r.held());
         r.on_step(1.0, 0.0);
         assert!(r.reach(0, 3.0, 0.3).is_none(), "forgotten");
     }

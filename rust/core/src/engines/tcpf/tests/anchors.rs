@@ -30,7 +30,7 @@ fn first_on(out: &ReplayOutput, f: i32) -> Option<f64> {
 /// barometer stays level; the walker is told floor 0. By default the told
 /// floor holds: on a route the survey never walked the anchors can name
 /// the floor above or below for many updates in a row (IPIN, docs/tcpf.md
-/// "Floors"). With `floor_force_after_told` their run of votes moves the
+/// "A told floor holds against the anchors"). With `floor_force_after_told` their run of votes moves the
 /// track to floor 1 within 10 s, as it moves a start floor the radio
 /// chose; without `floor_force_votes` it does not.
 #[test]

@@ -1,6 +1,7 @@
 //! Engine `tcpf` on simulated walks of the demo site: the two-phone case of
 //! issue 16 (the same walk heard by a phone 9 dB weaker), a start from a
-//! scan far from the walks, and the published track against the walls.
+//! scan far from the walks, the published track against the walls, the
+//! wrong-wing maps, and engines sharing one radio map.
 
 mod common;
 
@@ -602,4 +603,42 @@ fn a_radio_map_wrong_over_one_wing_is_not_followed_there() {
     );
     assert_the_fit_check_holds_the_wing(d, q, di, dout);
     assert!(d < o, "defaults {d:.2} m, without the fit check {o:.2} m");
+}
+
+/// The grids `tcpf` derives from a radio map (the survey's own misfit per
+/// place, the distance to its walks) are built once per map and shared by
+/// every engine on it (`fpbp_core::radio::derived`): an engine on a map
+/// other engines have used gives, to the bit, the track of an engine on a
+/// fresh copy of the map.
+#[test]
+fn engines_sharing_a_radio_map_give_the_track_of_one_alone() {
+    use fpbp_core::engines::{EngineData, build_engine_with};
+    use fpbp_core::radio::RadioModel;
+    let site = demo_site();
+    let map = common::surveyed_map(&site, &[1, 2, 3, 4, 5, 6], |e| e.to_vec());
+    let log = simulate(&site, &SimRequest::new(120.0, 7)).unwrap();
+    let track = |data: &EngineData| {
+        let cfg = EngineConfig {
+            seed: 3,
+            ..EngineConfig::default()
+        };
+        let mut e = build_engine_with("tcpf", site.clone(), &cfg, None, data).unwrap();
+        replay(e.as_mut(), log.events.iter().cloned()).track
+    };
+    let shared = Arc::new(map.clone());
+    let data = EngineData {
+        radio_map: Some(shared.clone()),
+        ..EngineData::default()
+    };
+    let first = track(&data);
+    let kept = shared.derived().map_or(0, |d| d.len());
+    assert!(kept >= 1, "the first engine kept {kept} derived grids");
+    let second = track(&data);
+    let fresh = track(&EngineData {
+        radio_map: Some(Arc::new(map)),
+        ..EngineData::default()
+    });
+    assert!(!first.is_empty());
+    assert_eq!(first, second, "a second engine on the shared map");
+    assert_eq!(first, fresh, "an engine on a fresh copy of the map");
 }

@@ -4,6 +4,8 @@
 //! is there, the phone's RSSI offset, and the window that turns raw
 //! advertisements and scans into one measurement set per radio update.
 //!
+//! - [`derived`]: values derived from a model (grids over its survey
+//!   scans) built once per model and shared by the engines on it.
 //! - [`model`]: the [`RadioModel`] trait and [`PathLossModel`], the fitted
 //!   log-distance model of every beacon and access point of the site
 //!   (`fpbp calibrate`, `calibrate --wifi`).
@@ -28,6 +30,7 @@
 //!   (walls counted on the floor plan) under the radio map, where the
 //!   survey never went.
 
+pub mod derived;
 pub mod device_offsets;
 pub mod fast_ln;
 pub mod likelihood;

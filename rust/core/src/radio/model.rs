@@ -159,6 +159,11 @@ pub trait RadioModel: Send + Sync {
     fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
         None
     }
+    /// Where values derived from the model are kept for every engine on
+    /// it ([`super::derived`]); `None`: each engine builds its own.
+    fn derived(&self) -> Option<&super::derived::DerivedCache> {
+        None
+    }
     /// The survey's magnetic field, when the model has it.
     fn magnetic(&self) -> Option<&super::magnetic_map::MagneticMap> {
         None

@@ -422,18 +422,22 @@ pub struct RadioMap {
     pub(crate) magnetic: Option<super::magnetic_map::MagneticMap>,
     /// The survey's phone models' offsets per radio.
     pub(crate) devices: super::device_offsets::DeviceOffsets,
+    /// Values the engines derive from the map (emptied by every setter).
+    pub(crate) derived: super::derived::DerivedCache,
 }
 
 impl RadioMap {
     /// Attaches the survey's reference scans (carried in the map's file).
     pub fn set_reference_scans(&mut self, scans: super::reference_scans::ReferenceScans) {
         self.scans = Some(scans);
+        self.derived = Default::default();
     }
 
     /// Attaches the survey's phone models' offsets (carried in the map's
     /// file).
     pub fn set_device_offsets(&mut self, devices: super::device_offsets::DeviceOffsets) {
         self.devices = devices;
+        self.derived = Default::default();
     }
 
     /// The survey's phone models' offsets per radio.
@@ -444,6 +448,7 @@ impl RadioMap {
     /// Attaches the survey's magnetic map (carried in the map's file).
     pub fn set_magnetic(&mut self, magnetic: Option<super::magnetic_map::MagneticMap>) {
         self.magnetic = magnetic;
+        self.derived = Default::default();
     }
 
     /// A map of `tx` / `entries` (same order) on `site`'s floors; ids must
@@ -479,6 +484,7 @@ impl RadioMap {
             scans: None,
             magnetic: None,
             devices: Default::default(),
+            derived: Default::default(),
         })
     }
 
@@ -618,6 +624,10 @@ impl RadioModel for RadioMap {
 
     fn reference_scans(&self) -> Option<&super::reference_scans::ReferenceScans> {
         self.scans.as_ref().filter(|s| !s.is_empty())
+    }
+
+    fn derived(&self) -> Option<&super::derived::DerivedCache> {
+        Some(&self.derived)
     }
 
     fn device_offset_db(&self, device: &str, kind: TxKind) -> Option<f64> {

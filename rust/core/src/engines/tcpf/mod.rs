@@ -141,14 +141,16 @@ pub struct TcpfEngine {
     magnetic: MagneticState,
     /// Reused buffers of the steps and the radio update (`radio_update.rs`).
     scratch: Scratch,
-    /// The distance to the survey's walks, built at its first use
-    /// (`survey_reach.rs`).
-    reach: Option<SurveyReach>,
+    /// The distance to the survey's walks, built at its first use (once
+    /// per radio map, shared by its engines: `radio::derived`;
+    /// `survey_reach.rs`).
+    reach: Option<Arc<SurveyReach>>,
     /// The dead-reckoned told position and its reach (`told_reach.rs`).
     told_reach: ToldReach,
-    /// The survey's own misfit per place, built at its first use
-    /// (`survey_fit.rs`; `None` inside: the model has no reference scans).
-    survey_fit: Option<Option<SurveyFit>>,
+    /// The survey's own misfit per place, built at its first use (once
+    /// per radio map, as `reach`; `survey_fit.rs`; `None` inside: the
+    /// model has no reference scans).
+    survey_fit: Option<Option<Arc<SurveyFit>>>,
     ble_period_ns: i64,
     fusion_period_ns: i64,
     stats: EngineStats,

@@ -12,6 +12,7 @@
 //! median is used.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use crate::Vec2;
 use crate::radio::RadioModel;
@@ -135,9 +136,14 @@ impl super::TcpfEngine {
         }
         let cap = ic.fit_z2_cap;
         let model = &self.model;
-        let fit = self
-            .survey_fit
-            .get_or_insert_with(|| SurveyFit::of_model(model.as_ref(), cell_m, cap));
+        let fit = self.survey_fit.get_or_insert_with(|| {
+            let build = || SurveyFit::of_model(model.as_ref(), cell_m, cap).map(Arc::new);
+            match model.derived() {
+                // shared by the engines on the model
+                Some(d) => Option::clone(&d.get_or_build(&[cell_m, cap], build)),
+                None => build(),
+            }
+        });
         match (fit, self.pf.mean()) {
             (Some(f), Some(p)) => f.relative_level(floor, p).unwrap_or(1.0),
             _ => 1.0,

@@ -4,6 +4,7 @@
 //! (`anchors.far_survey_penalty`).
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use super::TcpfEngine;
 use crate::Vec2;
@@ -23,6 +24,7 @@ struct FloorGrid {
 }
 
 /// The distance to the survey per floor, out to `reach_m`.
+#[derive(Default)]
 pub(super) struct SurveyReach {
     floors: BTreeMap<i32, FloorGrid>,
 }
@@ -131,13 +133,24 @@ impl TcpfEngine {
         if penalty <= 0.0 || !self.far_from_survey() {
             return;
         }
-        let Some(scans) = self.model.reference_scans() else {
+        let model = &self.model;
+        if model.reference_scans().is_none() {
             return;
-        };
+        }
         // beyond 3 sigma the penalty is 1 % of its peak: not stored
-        let reach = self
-            .reach
-            .get_or_insert_with(|| SurveyReach::of_scans(scans, 1.0, 3.0 * sigma));
+        let reach = self.reach.get_or_insert_with(|| {
+            let build = || {
+                model
+                    .reference_scans()
+                    .map(|scans| SurveyReach::of_scans(scans, 1.0, 3.0 * sigma))
+                    .unwrap_or_default()
+            };
+            match model.derived() {
+                // shared by the engines on the model
+                Some(d) => d.get_or_build(&[1.0, 3.0 * sigma], build),
+                None => Arc::new(build()),
+            }
+        });
         let k = -0.5 / (sigma * sigma);
         for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
             if let Some(d) = reach.distance_m(floor, *p) {

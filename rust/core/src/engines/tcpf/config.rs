@@ -87,6 +87,18 @@ pub struct TcpfConfig {
     pub told_reach_per_walked: f64,
     /// See `told_reach_m` (0 = only the re-seeding is bounded).
     pub told_reach_weight: f64,
+    /// The told reach around the wedge of the steps' displacement since
+    /// the told position, scaled by `told_reach_scale_lo`..`_hi` and turned
+    /// by at most `told_reach_turn_rad`, instead of around the
+    /// dead-reckoned point (a step length or a heading biased alike over
+    /// the walk moves the walker along or across the displacement).
+    pub told_reach_wedge: bool,
+    /// See `told_reach_wedge`.
+    pub told_reach_scale_lo: f64,
+    /// See `told_reach_wedge`.
+    pub told_reach_scale_hi: f64,
+    /// See `told_reach_wedge`, rad.
+    pub told_reach_turn_rad: f64,
     /// The radio-alone test also runs every this many radio updates
     /// without a likelihood dip (0 = only after a dip; each run evaluates
     /// the whole surface).
@@ -424,8 +436,12 @@ impl Default for TcpfConfig {
             recovery_global_radio_alone_margin: 8.0,
             recovery_told_open_floor: false,
             told_reach_m: 3.0,
-            told_reach_per_walked: 0.3,
+            told_reach_per_walked: 0.1,
             told_reach_weight: 10.0,
+            told_reach_wedge: true,
+            told_reach_scale_lo: 0.8,
+            told_reach_scale_hi: 1.4,
+            told_reach_turn_rad: 0.2,
             recovery_check_every: 0,
             floor_switch_votes: 3,
             floor_snap_m: 5.0,
@@ -522,6 +538,9 @@ impl TcpfConfig {
                 10.0,
             ),
             ("told_reach_weight", self.told_reach_weight, 0.0, 1e6),
+            ("told_reach_scale_lo", self.told_reach_scale_lo, 0.0, 10.0),
+            ("told_reach_scale_hi", self.told_reach_scale_hi, 0.0, 10.0),
+            ("told_reach_turn_rad", self.told_reach_turn_rad, 0.0, 3.2),
             ("cell_m", self.cell_m, 0.25, 50.0),
             ("start_wait_ble_s", self.start_wait_ble_s, 0.0, 600.0),
             ("recovery_alpha_slow", self.recovery_alpha_slow, 0.0, 1.0),

@@ -4,8 +4,11 @@
 //! steps' drift of its dead-reckoned track, whatever a radio biased away
 //! from the survey's routes says; re-seeding draws only from there, and
 //! (`told_reach_weight`) particles beyond it lose weight at each radio
-//! update. Unless the walls say the told position was wrong: then the
-//! reach is dropped.
+//! update. The drift is read around the wedge of the steps' displacement
+//! (`told_reach_wedge`: a step length wrong alike over the walk scales the
+//! displacement, a heading biased alike turns it), or around the
+//! dead-reckoned point. Unless the walls say the told position was wrong:
+//! then the reach is dropped.
 
 use super::TcpfEngine;
 use super::start::Surface;
@@ -17,14 +20,49 @@ pub(super) struct ToldReach {
     /// Floor and dead-reckoned position; `None` after a global start or a
     /// floor change.
     at: Option<(i32, Vec2)>,
+    /// The told position itself.
+    origin: Vec2,
     /// Distance the steps walked since the told position, m.
     walked_m: f64,
+}
+
+/// The shape of the reach (`told_reach_wedge`): the dead-reckoned
+/// displacement scaled by [`Self::lo`, `Self::hi`] and turned by at most
+/// `turn_rad` either way, around the told position.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Wedge {
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    pub(super) turn_rad: f64,
+}
+
+impl Wedge {
+    /// Distance from `v` to the wedge of displacement `d` (both from the
+    /// told position), m.
+    fn distance(&self, v: Vec2, d: Vec2) -> f64 {
+        let rd = d.norm();
+        if rd < 1e-9 {
+            return v.norm();
+        }
+        let (lo, hi) = (self.lo * rd, self.hi * rd);
+        let rv = v.norm();
+        let phi = (d.x * v.y - d.y * v.x).atan2(d.dot(&v));
+        if phi.abs() <= self.turn_rad {
+            return (lo - rv).max(rv - hi).max(0.0);
+        }
+        let a = self.turn_rad.copysign(phi);
+        let u = d / rd;
+        let u = Vec2::new(u.x * a.cos() - u.y * a.sin(), u.x * a.sin() + u.y * a.cos());
+        let t = v.dot(&u).clamp(lo, hi);
+        (v - u * t).norm()
+    }
 }
 
 impl ToldReach {
     /// A told position `p` on `floor`.
     pub(super) fn restart(&mut self, floor: i32, p: Vec2) {
         self.at = Some((floor, p));
+        self.origin = p;
         self.walked_m = 0.0;
     }
 
@@ -50,6 +88,25 @@ impl ToldReach {
     /// The dead-reckoned point and the reach around it on `floor`, m:
     /// `base_m` + `per_walked` x the distance walked; `None` off
     /// (`base_m` 0), after a global start or on another floor.
+    /// How far `p` on `floor` lies beyond the reach, m (at most 0 within),
+    /// and the reach: from the dead-reckoned point, or (`wedge`) from the
+    /// wedge of the dead-reckoned displacement.
+    fn beyond(
+        &self,
+        floor: i32,
+        p: Vec2,
+        base_m: f64,
+        per_walked: f64,
+        wedge: Option<Wedge>,
+    ) -> Option<(f64, f64)> {
+        let (centre, reach) = self.reach(floor, base_m, per_walked)?;
+        let d = match wedge {
+            Some(w) => w.distance(p - self.origin, centre - self.origin),
+            None => (p - centre).norm(),
+        };
+        Some((d - reach, reach))
+    }
+
     fn reach(&self, floor: i32, base_m: f64, per_walked: f64) -> Option<(Vec2, f64)> {
         match self.at {
             Some((f, p)) if f == floor && base_m > 0.0 => {
@@ -61,9 +118,17 @@ impl ToldReach {
 }
 
 impl TcpfEngine {
-    fn told_reach_on(&self, floor: i32) -> Option<(Vec2, f64)> {
+    /// How far `p` lies beyond the told reach on `floor`, and the reach;
+    /// `None` without one.
+    fn beyond_told_reach(&self, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+        let c = &self.cfg;
+        let wedge = c.told_reach_wedge.then_some(Wedge {
+            lo: c.told_reach_scale_lo,
+            hi: c.told_reach_scale_hi,
+            turn_rad: c.told_reach_turn_rad,
+        });
         self.told_reach
-            .reach(floor, self.cfg.told_reach_m, self.cfg.told_reach_per_walked)
+            .beyond(floor, p, c.told_reach_m, c.told_reach_per_walked, wedge)
     }
 
     /// Zeroes the weights of `surf`'s cells on `floor` beyond the told
@@ -72,12 +137,15 @@ impl TcpfEngine {
     /// when no cell is within reach. Without a reach `surf` is unchanged
     /// and the result 0.
     pub(super) fn keep_within_told_reach(&self, floor: i32, surf: &mut Surface) -> Option<f64> {
-        let Some((centre, reach)) = self.told_reach_on(floor) else {
+        if self.beyond_told_reach(floor, Vec2::zeros()).is_none() {
             return Some(0.0);
-        };
+        }
         let mut best = 0.0f64;
         for (c, w) in surf.cells.iter().zip(surf.w.iter_mut()) {
-            if (c - centre).norm() > reach {
+            if self
+                .beyond_told_reach(floor, *c)
+                .is_some_and(|(b, _)| b > 0.0)
+            {
                 *w = 0.0;
             } else {
                 best = best.max(*w);
@@ -102,11 +170,13 @@ impl TcpfEngine {
         if w <= 0.0 {
             return;
         }
-        let Some((centre, reach)) = self.told_reach_on(floor) else {
+        if self.beyond_told_reach(floor, Vec2::zeros()).is_none() {
             return;
-        };
+        }
         for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
-            let beyond = (p - centre).norm() - reach;
+            let Some((beyond, reach)) = self.beyond_told_reach(floor, *p) else {
+                continue;
+            };
             if beyond > 0.0 {
                 let z = beyond / reach;
                 *u -= 0.5 * w * z * z;
@@ -138,5 +208,29 @@ mod tests {
         assert!(!r.held());
         r.on_step(1.0, 0.0);
         assert!(r.reach(0, 3.0, 0.3).is_none(), "forgotten");
+    }
+
+    #[test]
+    fn the_wedge_is_the_displacement_scaled_and_turned() {
+        let w = Wedge {
+            lo: 0.8,
+            hi: 1.4,
+            turn_rad: 0.2,
+        };
+        let d = Vec2::new(10.0, 0.0);
+        let at = |x: f64, y: f64| w.distance(Vec2::new(x, y), d);
+        assert_eq!(at(10.0, 0.0), 0.0);
+        assert!(
+            (at(5.0, 0.0) - 3.0).abs() < 1e-12,
+            "short of the shortest scale"
+        );
+        assert!((at(16.0, 0.0) - 2.0).abs() < 1e-12, "beyond the longest");
+        assert_eq!(at(10.0, 1.0), 0.0, "turned by less than the turn");
+        // turned by more: the distance to the wedge's edge
+        let want = (5.0 * 0.2f64.cos() - 10.0 * 0.2f64.sin()).abs();
+        assert!((at(10.0, 5.0) - want).abs() < 1e-12, "{}", at(10.0, 5.0));
+        assert!((at(10.0, -5.0) - want).abs() < 1e-12);
+        // no displacement: the told position itself
+        assert_eq!(w.distance(Vec2::new(3.0, 4.0), Vec2::zeros()), 5.0);
     }
 }

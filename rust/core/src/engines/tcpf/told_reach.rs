@@ -27,8 +27,8 @@ pub(super) struct ToldReach {
 }
 
 /// The shape of the reach (`told_reach_wedge`): the dead-reckoned
-/// displacement scaled by [`Self::lo`, `Self::hi`] and turned by at most
-/// `turn_rad` either way, around the told position.
+/// displacement scaled by `lo` to `hi` and turned by at most `turn_rad`
+/// either way, around the told position.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct Wedge {
     pub(super) lo: f64,
@@ -85,9 +85,6 @@ impl ToldReach {
         }
     }
 
-    /// The dead-reckoned point and the reach around it on `floor`, m:
-    /// `base_m` + `per_walked` x the distance walked; `None` off
-    /// (`base_m` 0), after a global start or on another floor.
     /// How far `p` on `floor` lies beyond the reach, m (at most 0 within),
     /// and the reach: from the dead-reckoned point, or (`wedge`) from the
     /// wedge of the dead-reckoned displacement.
@@ -107,6 +104,9 @@ impl ToldReach {
         Some((d - reach, reach))
     }
 
+    /// The dead-reckoned point and the reach around it on `floor`, m:
+    /// `base_m` + `per_walked` x the distance walked; `None` off
+    /// (`base_m` 0), after a global start or on another floor.
     fn reach(&self, floor: i32, base_m: f64, per_walked: f64) -> Option<(Vec2, f64)> {
         match self.at {
             Some((f, p)) if f == floor && base_m > 0.0 => {

@@ -75,6 +75,19 @@ impl DerivedCache {
     }
 }
 
+/// [`DerivedCache::get_or_build`] in `cache` when the model has one
+/// ([`super::RadioModel::derived`]), else `build()` for this caller alone.
+pub fn get_or_build_in<T: Any + Send + Sync>(
+    cache: Option<&DerivedCache>,
+    key: &[f64],
+    build: impl FnOnce() -> T,
+) -> Arc<T> {
+    match cache {
+        Some(c) => c.get_or_build(key, build),
+        None => Arc::new(build()),
+    }
+}
+
 fn find_in<T: Any + Send + Sync>(slots: &[Slot], key: &[u64]) -> Option<Arc<T>> {
     slots
         .iter()

@@ -16,6 +16,7 @@ use std::sync::Arc;
 
 use crate::Vec2;
 use crate::radio::RadioModel;
+use crate::radio::derived::get_or_build_in;
 use crate::radio::radio_map::tenths;
 
 /// Fewest readings of a scan for its z^2.
@@ -136,13 +137,11 @@ impl super::TcpfEngine {
         }
         let cap = ic.fit_z2_cap;
         let model = &self.model;
+        // shared by the engines on the model
         let fit = self.survey_fit.get_or_insert_with(|| {
-            let build = || SurveyFit::of_model(model.as_ref(), cell_m, cap).map(Arc::new);
-            match model.derived() {
-                // shared by the engines on the model
-                Some(d) => Option::clone(&d.get_or_build(&[cell_m, cap], build)),
-                None => build(),
-            }
+            Option::clone(&get_or_build_in(model.derived(), &[cell_m, cap], || {
+                SurveyFit::of_model(model.as_ref(), cell_m, cap).map(Arc::new)
+            }))
         });
         match (fit, self.pf.mean()) {
             (Some(f), Some(p)) => f.relative_level(floor, p).unwrap_or(1.0),

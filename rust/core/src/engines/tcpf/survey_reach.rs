@@ -4,10 +4,10 @@
 //! (`anchors.far_survey_penalty`).
 
 use std::collections::BTreeMap;
-use std::sync::Arc;
 
 use super::TcpfEngine;
 use crate::Vec2;
+use crate::radio::derived::get_or_build_in;
 use crate::radio::reference_scans::ReferenceScans;
 
 /// At most this many cells per floor: a larger floor gets coarser cells.
@@ -24,7 +24,6 @@ struct FloorGrid {
 }
 
 /// The distance to the survey per floor, out to `reach_m`.
-#[derive(Default)]
 pub(super) struct SurveyReach {
     floors: BTreeMap<i32, FloorGrid>,
 }
@@ -134,22 +133,15 @@ impl TcpfEngine {
             return;
         }
         let model = &self.model;
-        if model.reference_scans().is_none() {
+        let Some(scans) = model.reference_scans() else {
             return;
-        }
-        // beyond 3 sigma the penalty is 1 % of its peak: not stored
+        };
+        // beyond 3 sigma the penalty is 1 % of its peak: not stored;
+        // shared by the engines on the model
         let reach = self.reach.get_or_insert_with(|| {
-            let build = || {
-                model
-                    .reference_scans()
-                    .map(|scans| SurveyReach::of_scans(scans, 1.0, 3.0 * sigma))
-                    .unwrap_or_default()
-            };
-            match model.derived() {
-                // shared by the engines on the model
-                Some(d) => d.get_or_build(&[1.0, 3.0 * sigma], build),
-                None => Arc::new(build()),
-            }
+            get_or_build_in(model.derived(), &[1.0, 3.0 * sigma], || {
+                SurveyReach::of_scans(scans, 1.0, 3.0 * sigma)
+            })
         });
         let k = -0.5 / (sigma * sigma);
         for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {

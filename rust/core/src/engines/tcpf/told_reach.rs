@@ -58,6 +58,25 @@ impl Wedge {
     }
 }
 
+/// The told reach on one floor, for one pass over particles or cells.
+struct ReachOn {
+    origin: Vec2,
+    centre: Vec2,
+    reach_m: f64,
+    wedge: Option<Wedge>,
+}
+
+impl ReachOn {
+    /// How far `p` lies beyond the reach, m (at most 0 within).
+    fn beyond(&self, p: Vec2) -> f64 {
+        let d = match self.wedge {
+            Some(w) => w.distance(p - self.origin, self.centre - self.origin),
+            None => (p - self.centre).norm(),
+        };
+        d - self.reach_m
+    }
+}
+
 impl ToldReach {
     /// A told position `p` on `floor`.
     pub(super) fn restart(&mut self, floor: i32, p: Vec2) {
@@ -85,23 +104,23 @@ impl ToldReach {
         }
     }
 
-    /// How far `p` on `floor` lies beyond the reach, m (at most 0 within),
-    /// and the reach: from the dead-reckoned point, or (`wedge`) from the
-    /// wedge of the dead-reckoned displacement.
-    fn beyond(
+    /// The reach on `floor` resolved once for a pass over many points:
+    /// around the dead-reckoned point, or (`wedge`) around the wedge of
+    /// the dead-reckoned displacement; `None` as [`Self::reach`].
+    fn on(
         &self,
         floor: i32,
-        p: Vec2,
         base_m: f64,
         per_walked: f64,
         wedge: Option<Wedge>,
-    ) -> Option<(f64, f64)> {
-        let (centre, reach) = self.reach(floor, base_m, per_walked)?;
-        let d = match wedge {
-            Some(w) => w.distance(p - self.origin, centre - self.origin),
-            None => (p - centre).norm(),
-        };
-        Some((d - reach, reach))
+    ) -> Option<ReachOn> {
+        let (centre, reach_m) = self.reach(floor, base_m, per_walked)?;
+        Some(ReachOn {
+            origin: self.origin,
+            centre,
+            reach_m,
+            wedge,
+        })
     }
 
     /// The dead-reckoned point and the reach around it on `floor`, m:
@@ -118,9 +137,8 @@ impl ToldReach {
 }
 
 impl TcpfEngine {
-    /// How far `p` lies beyond the told reach on `floor`, and the reach;
-    /// `None` without one.
-    fn beyond_told_reach(&self, floor: i32, p: Vec2) -> Option<(f64, f64)> {
+    /// The told reach on `floor`; `None` without one.
+    fn told_reach_on(&self, floor: i32) -> Option<ReachOn> {
         let c = &self.cfg;
         let wedge = c.told_reach_wedge.then_some(Wedge {
             lo: c.told_reach_scale_lo,
@@ -128,7 +146,7 @@ impl TcpfEngine {
             turn_rad: c.told_reach_turn_rad,
         });
         self.told_reach
-            .beyond(floor, p, c.told_reach_m, c.told_reach_per_walked, wedge)
+            .on(floor, c.told_reach_m, c.told_reach_per_walked, wedge)
     }
 
     /// Zeroes the weights of `surf`'s cells on `floor` beyond the told
@@ -137,15 +155,12 @@ impl TcpfEngine {
     /// when no cell is within reach. Without a reach `surf` is unchanged
     /// and the result 0.
     pub(super) fn keep_within_told_reach(&self, floor: i32, surf: &mut Surface) -> Option<f64> {
-        if self.beyond_told_reach(floor, Vec2::zeros()).is_none() {
+        let Some(r) = self.told_reach_on(floor) else {
             return Some(0.0);
-        }
+        };
         let mut best = 0.0f64;
         for (c, w) in surf.cells.iter().zip(surf.w.iter_mut()) {
-            if self
-                .beyond_told_reach(floor, *c)
-                .is_some_and(|(b, _)| b > 0.0)
-            {
+            if r.beyond(*c) > 0.0 {
                 *w = 0.0;
             } else {
                 best = best.max(*w);
@@ -170,15 +185,13 @@ impl TcpfEngine {
         if w <= 0.0 {
             return;
         }
-        if self.beyond_told_reach(floor, Vec2::zeros()).is_none() {
+        let Some(r) = self.told_reach_on(floor) else {
             return;
-        }
+        };
         for (u, p) in log_l.iter_mut().zip(self.pf.particles()) {
-            let Some((beyond, reach)) = self.beyond_told_reach(floor, *p) else {
-                continue;
-            };
+            let beyond = r.beyond(*p);
             if beyond > 0.0 {
-                let z = beyond / reach;
+                let z = beyond / r.reach_m;
                 *u -= 0.5 * w * z * z;
             }
         }

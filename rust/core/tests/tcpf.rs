@@ -487,16 +487,18 @@ fn a_radio_wrong_over_one_wing_is_not_followed_there_from_a_known_start() {
 }
 
 /// The told start's reach (`tcpf.told_reach_m` 3 m +
-/// `told_reach_per_walked` 0.3 x the distance walked, `told_reach_weight`
-/// 10; on by default) in the same wrong wing, alone (the fit check off):
-/// the radio cannot carry a cloud told where it started beyond the steps'
-/// drift from the dead-reckoned track, so the error in the wing is at most
-/// 0.9 x the error without the reach (measured 16.02 m against 19.44,
-/// seeds 1-8: the walks are minutes long, and the reach grows with them
-/// to the wing's size; the walls also release it where they kill the
-/// cloud); with the defaults (the fit check too) within 1.1 x `pdr`'s
-/// (5.31 m against 5.65: the fit check does the work here). Figures
-/// printed with `--nocapture`.
+/// `told_reach_per_walked` 0.1 x the distance walked around the wedge of
+/// the steps' displacement, `told_reach_weight` 10; on by default) in the
+/// same wrong wing, alone (the fit check off): the radio cannot carry a
+/// cloud told where it started beyond the steps' drift from the
+/// dead-reckoned track, so the error in the wing is at most 0.9 x the
+/// error without the reach (measured 16.22 m against 19.44, seeds 1-8;
+/// the disc of 3 m + 0.3 m per metre walked around the dead-reckoned
+/// point gave 16.02: the walks are minutes long, and either reach grows
+/// with them to the wing's size; the walls also release it where they
+/// kill the cloud); with the defaults (the fit check too) within 1.1 x
+/// `pdr`'s (5.32 m against 5.65: the fit check does the work here).
+/// Figures printed with `--nocapture`.
 #[test]
 fn a_told_start_is_not_carried_beyond_the_steps_reach() {
     let site = demo_site();

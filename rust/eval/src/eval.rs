@@ -275,7 +275,8 @@ fn jobs(args: &EvalOptions) -> usize {
 
 /// Replays every (config, log) pair of the plan on [`jobs`] threads; the
 /// result is indexed [config][log] whatever the order the work ran in, and
-/// the first error (in that order) is returned.
+/// the first error (in that order) is returned. Each log is read once for
+/// all the configs (seeds) that replay it ([`SharedLogs`]).
 fn replay_all(
     args: &EvalOptions,
     plan: &Plan,
@@ -288,47 +289,112 @@ fn replay_all(
     } else {
         indicatif::ProgressBar::hidden()
     };
-    let work: Vec<(usize, usize)> = (0..cfgs.len())
-        .flat_map(|c| (0..plan.logs.len()).map(move |l| (c, l)))
+    // log-major: the configs of one log run one after the other, so a read
+    // log is dropped soon after it is read
+    let work: Vec<(usize, usize)> = (0..plan.logs.len())
+        .flat_map(|l| (0..cfgs.len()).map(move |c| (c, l)))
         .collect();
+    let logs = SharedLogs::new(plan.logs.len(), cfgs.len());
     let done = crate::parallel::map_in_order(&work, jobs(args), |&(c, l)| {
-        replay_log(args, plan, &cfgs[c], &plan.logs[l], build, &bar)
+        let log = logs.get(l, || read_log(args, plan, &plan.logs[l]))?;
+        replay_log(args, plan, &cfgs[c], &log, build, &bar)
     });
     bar.finish_and_clear();
-    let mut out: Vec<Vec<LogUnit>> = cfgs.iter().map(|_| Vec::new()).collect();
-    for ((c, _), unit) in work.into_iter().zip(done) {
-        out[c].push(unit?);
+    let mut grid: Vec<Vec<Option<anyhow::Result<LogUnit>>>> = cfgs
+        .iter()
+        .map(|_| plan.logs.iter().map(|_| None).collect())
+        .collect();
+    for ((c, l), unit) in work.into_iter().zip(done) {
+        grid[c][l] = Some(unit);
     }
-    Ok(out)
+    grid.into_iter()
+        .map(|row| row.into_iter().flatten().collect())
+        .collect()
 }
 
-/// Reads `path` and replays it through every engine of the plan.
+/// Logs read once and handed to every config that replays them: slot `l`
+/// holds log `l` from its first reader until its last user took it.
+struct SharedLogs {
+    slots: Vec<std::sync::Mutex<SharedSlot>>,
+}
+
+struct SharedSlot {
+    log: Option<std::sync::Arc<crate::runner::LoadedLog>>,
+    /// Users still to come (the configs).
+    uses_left: usize,
+}
+
+impl SharedLogs {
+    fn new(logs: usize, uses: usize) -> Self {
+        SharedLogs {
+            slots: (0..logs)
+                .map(|_| {
+                    std::sync::Mutex::new(SharedSlot {
+                        log: None,
+                        uses_left: uses,
+                    })
+                })
+                .collect(),
+        }
+    }
+
+    /// Log `l`, read by `read` if no earlier user kept it (a failed read is
+    /// not kept: the next user reads again, and fails the same way).
+    fn get(
+        &self,
+        l: usize,
+        read: impl FnOnce() -> anyhow::Result<crate::runner::LoadedLog>,
+    ) -> anyhow::Result<std::sync::Arc<crate::runner::LoadedLog>> {
+        let mut slot = self.slots[l].lock().unwrap_or_else(|e| e.into_inner());
+        slot.uses_left = slot.uses_left.saturating_sub(1);
+        let log = match &slot.log {
+            Some(log) => std::sync::Arc::clone(log),
+            None => std::sync::Arc::new(read()?),
+        };
+        slot.log = (slot.uses_left > 0).then(|| std::sync::Arc::clone(&log));
+        Ok(log)
+    }
+}
+
+/// Reads `path` with the plan's options and keeps the radios asked for.
+fn read_log(
+    args: &EvalOptions,
+    plan: &Plan,
+    path: &Path,
+) -> anyhow::Result<crate::runner::LoadedLog> {
+    let mut log = crate::runner::load_log(path, &plan.opts)?;
+    crate::radios::keep_radios(&mut log.events, &args.radios);
+    Ok(log)
+}
+
+/// Replays `log` through every engine of the plan.
 fn replay_log(
     args: &EvalOptions,
     plan: &Plan,
     cfg: &fpbp_core::engines::EngineConfig,
-    path: &Path,
+    log: &crate::runner::LoadedLog,
     build: &EngineBuilder,
     bar: &indicatif::ProgressBar,
 ) -> anyhow::Result<LogUnit> {
-    let mut log = crate::runner::load_log(path, &plan.opts)?;
-    crate::radios::keep_radios(&mut log.events, &args.radios);
     let read = ReadSummary::from(&log.report);
     let mut runs = Vec::with_capacity(plan.engines.len());
     for e in &plan.engines {
-        bar.set_message(format!("{e} on {}", short(path)));
+        bar.set_message(format!("{e} on {}", short(&log.path)));
         runs.push(crate::runner::run_log(
-            build, e, &plan.site, cfg, args.init, &log,
+            build, e, &plan.site, cfg, args.init, log,
         )?);
         bar.inc(1);
     }
     let loaded = crate::runner::LoadedLog {
+        path: log.path.clone(),
+        name: log.name.clone(),
         events: log
             .events
-            .into_iter()
+            .iter()
             .filter(|e| matches!(e, fpbp_core::events::LogEvent::Ble(_)))
+            .cloned()
             .collect(),
-        ..log
+        report: log.report.clone(),
     };
     Ok(LogUnit { runs, read, loaded })
 }
@@ -482,6 +548,34 @@ mod tests {
                 "replay --engine help lacks {name}"
             );
         }
+    }
+
+    #[test]
+    fn a_shared_log_is_read_once_and_dropped_after_its_last_user() {
+        let reads = std::sync::atomic::AtomicUsize::new(0);
+        let read = || {
+            reads.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Ok(crate::runner::LoadedLog {
+                path: "a.log".into(),
+                name: "a.log".into(),
+                events: Vec::new(),
+                report: Default::default(),
+            })
+        };
+        let logs = SharedLogs::new(2, 3);
+        for _ in 0..3 {
+            assert_eq!(logs.get(0, read).unwrap().name, "a.log");
+        }
+        assert_eq!(reads.load(std::sync::atomic::Ordering::Relaxed), 1);
+        assert!(
+            logs.slots[0].lock().unwrap().log.is_none(),
+            "kept after the last user"
+        );
+        // a failed read is not kept: the next user reads again
+        let fail = || Err(anyhow::anyhow!("gone"));
+        assert!(logs.get(1, fail).is_err());
+        assert!(logs.get(1, read).is_ok());
+        assert_eq!(reads.load(std::sync::atomic::Ordering::Relaxed), 2);
     }
 
     #[test]

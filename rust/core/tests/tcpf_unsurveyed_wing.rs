@@ -58,9 +58,9 @@ fn west_wing_map(site: &Site) -> EngineData {
 /// (-14 dB on sim seed 32, whose phone reads as the map), since every
 /// re-seeding profiled its surface under that belief. The one left
 /// (sim seed 32, 6.6 m) was not traced. Per-particle offsets (`tcpf.offset.per_particle`) give 18 of
-/// 18 (2.26 m) but cost the real sets' own start (docs/tcpf.md "Phone
-/// offset of a lost cloud"). The test guards at least 16 of the walks
-/// within 5 m and the mean at most 3 m.
+/// 18 (2.26 m) but cost the real sets' own start (docs/lab/tcpf-radio-trust.md
+/// "The unsurveyed-wing start: the phone offset of a lost cloud"). The test
+/// guards at least 16 of the walks within 5 m and the mean at most 3 m.
 #[test]
 fn a_start_in_an_unsurveyed_wing_converges_in_the_surveyed_one() {
     let site = demo_site();

@@ -57,7 +57,11 @@ fn west_wing_map(site: &Site) -> EngineData {
 /// 5-11 m off, held there by the phone offset the lost cloud had learned
 /// (-14 dB on sim seed 32, whose phone reads as the map), since every
 /// re-seeding profiled its surface under that belief. The one left
-/// (sim seed 32, 6.6 m) was not traced. Per-particle offsets (`tcpf.offset.per_particle`) give 18 of
+/// (sim seed 32, 6.6 m) starts at the survey's edge with an offset of
+/// -10 dB (the weak readings far east read as a weak phone at the edge)
+/// and keeps -5 to -7 dB in the surveyed wing (docs/lab/tcpf-radio-trust.md
+/// "The one offset's learning slowed where the map or the cloud is
+/// unsure": neither variant there mends it robustly). Per-particle offsets (`tcpf.offset.per_particle`) give 18 of
 /// 18 (2.26 m) but cost the real sets' own start (docs/lab/tcpf-radio-trust.md
 /// "The unsurveyed-wing start: the phone offset of a lost cloud"). The test
 /// guards at least 16 of the walks within 5 m and the mean at most 3 m.

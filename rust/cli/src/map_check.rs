@@ -3,6 +3,9 @@
 //! DIR/overlay-floor-ID.png for every further floor: a figure with axes in
 //! metres, a scale bar and a legend; DIR/overlay-raw.png (and
 //! overlay-floor-ID-raw.png) hold the same layers at one pixel per plan pixel.
+//! With `--radio-map`, also how much of each floor's walkable area lies
+//! near the survey (its reference scans), printed per distance band and
+//! drawn in DIR/coverage.png (coverage-floor-ID.png).
 
 use std::path::PathBuf;
 
@@ -27,6 +30,12 @@ pub struct Args {
     /// the first floor).
     #[arg(long, num_args = 1..)]
     pub truth: Vec<PathBuf>,
+    /// A radio map (`fpbp calibrate --radio-map`): the share of each
+    /// floor's walkable area within 2 m, 2-5 m, 5-10 m and 10 m or more of
+    /// its reference scans (docs/tcpf.md "Survey density: what a survey
+    /// buys"), and DIR/coverage.png drawing it.
+    #[arg(long)]
+    pub radio_map: Option<PathBuf>,
 }
 
 pub fn run(args: Args) -> anyhow::Result<()> {
@@ -56,6 +65,10 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         );
         println!("truth {}: {} point(s)", log.display(), truth.len() - before);
     }
+    let scans = match &args.radio_map {
+        Some(path) => Some(survey_positions(path, &site)?),
+        None => None,
+    };
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     for (k, (fs, map)) in site.spec.floors.iter().zip(&site.floors).enumerate() {
@@ -153,9 +166,123 @@ pub fn run(args: Args) -> anyhow::Result<()> {
             path.display(),
             raw.display()
         );
+        if let Some(scans) = &scans {
+            let name = if k == 0 {
+                "coverage".to_string()
+            } else {
+                format!("coverage-floor-{}", fs.id)
+            };
+            write_coverage(&site, fs, map, scans, &args.out.join(format!("{name}.png")))?;
+        }
     }
     Ok(())
 }
+
+/// The positions of the reference scans of the radio map at `path`, by
+/// floor; an error when it has none (a map older than file version 2).
+fn survey_positions(
+    path: &std::path::Path,
+    site: &Site,
+) -> anyhow::Result<std::collections::BTreeMap<i32, Vec<Vec2>>> {
+    use fpbp_core::radio::RadioModel;
+    let map = fpbp_eval::radio_map::load(path, site)?;
+    let Some(scans) = map.reference_scans().filter(|s| !s.is_empty()) else {
+        anyhow::bail!(
+            "{}: the radio map has no reference scans (rebuild it with fpbp calibrate --radio-map)",
+            path.display()
+        );
+    };
+    let mut by_floor: std::collections::BTreeMap<i32, Vec<Vec2>> = Default::default();
+    for s in scans.scans() {
+        by_floor
+            .entry(s.floor)
+            .or_default()
+            .push(Vec2::new(s.x_m, s.y_m));
+    }
+    println!(
+        "radio map {}: {} reference scans on {} floor(s)",
+        path.display(),
+        scans.scans().len(),
+        by_floor.len()
+    );
+    Ok(by_floor)
+}
+
+/// Prints the floor's survey coverage by band and writes `path`: the plan
+/// with its walkable area coloured by the distance to the survey.
+fn write_coverage(
+    site: &Site,
+    fs: &fpbp_core::site::FloorSpec,
+    map: &FloorMap,
+    scans: &std::collections::BTreeMap<i32, Vec<Vec2>>,
+    path: &std::path::Path,
+) -> anyhow::Result<()> {
+    use fpbp_core::map::survey_coverage::SurveyCoverage;
+    let pts = scans.get(&fs.id).map(Vec::as_slice).unwrap_or(&[]);
+    let cov = SurveyCoverage::of(map, pts);
+    let s = cov.shares().map(|x| 100.0 * x);
+    println!(
+        "  survey coverage   {:.1} % of the walkable area within 2 m of the survey, {:.1} % 2-5 m, \
+         {:.1} % 5-10 m, {:.1} % 10 m or more ({} reference scans; {} m cells)",
+        s[0],
+        s[1],
+        s[2],
+        s[3],
+        pts.len(),
+        cov.cell_m()
+    );
+    let (w, h) = (map.width_px(), map.height_px());
+    let mut img = RgbaImage::new(w as u32, h as u32);
+    for j in 0..h {
+        for i in 0..w {
+            let c = match map.feature_px(i as isize, j as isize) {
+                Feature::Wall => WALL,
+                Feature::Door => DOOR,
+                Feature::Walkable => {
+                    let p = map.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5));
+                    cov.band_at(p)
+                        .map_or(Rgba([255, 255, 255, 255]), |b| BAND[b as usize])
+                }
+            };
+            img.put_pixel(i as u32, j as u32, c);
+        }
+    }
+    let points: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
+    let c = |p: Rgba<u8>| plotters::style::RGBColor(p.0[0], p.0[1], p.0[2]);
+    fpbp_eval::plot::floor_figure_png(
+        path,
+        &fpbp_eval::plot::FloorFigure {
+            title: format!(
+                "{}: floor {} ({}), distance to the survey",
+                site.spec.name, fs.id, fs.name
+            ),
+            image: &img,
+            width_m: map.width_m(),
+            height_m: map.height_m(),
+            points: &points,
+            point_label: "reference scans",
+            point_color: c(TRUTH_DOT),
+            legend: vec![
+                ("under 2 m".into(), c(BAND[0])),
+                ("2-5 m".into(), c(BAND[1])),
+                ("5-10 m".into(), c(BAND[2])),
+                ("10 m or more".into(), c(BAND[3])),
+                ("wall".into(), c(WALL)),
+                ("door".into(), c(DOOR)),
+            ],
+        },
+    )?;
+    println!("  coverage          {}", path.display());
+    Ok(())
+}
+
+/// The survey-distance bands' colours: under 2 m, 2-5 m, 5-10 m, 10 m or more.
+const BAND: [Rgba<u8>; 4] = [
+    Rgba([120, 200, 120, 255]),
+    Rgba([240, 210, 80, 255]),
+    Rgba([245, 150, 60, 255]),
+    Rgba([170, 110, 210, 255]),
+];
 
 const WALL: Rgba<u8> = Rgba([40, 40, 40, 255]);
 const DOOR: Rgba<u8> = Rgba([230, 20, 20, 255]);

@@ -187,3 +187,67 @@ fn plan_without_walkable_pixels_fails() {
         "{e}"
     );
 }
+
+/// `--radio-map`: the share of the walkable area by distance to the
+/// survey's reference scans, per floor, and coverage.png; a missing map
+/// file is one clear error naming it.
+#[test]
+fn a_radio_map_gives_the_survey_coverage() {
+    let out = scratch("coverage");
+    let (site, map) = (out.join("site.json"), out.join("radio-map.json"));
+    let cal = Command::new(env!("CARGO_BIN_EXE_fpbp"))
+        .arg("calibrate")
+        .arg("--site")
+        .arg(repo().join("maps/demo/site.json"))
+        .arg("--logs")
+        .arg(repo().join("host-tests/logs/demo-walk-1.log.gz"))
+        .arg(repo().join("host-tests/logs/demo-walk-2.log.gz"))
+        .args(["--split", "all", "--out"])
+        .arg(&site)
+        .arg("--radio-map")
+        .arg(&map)
+        .output()
+        .unwrap();
+    assert!(
+        cal.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cal.stderr)
+    );
+    let run = |map: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_fpbp"))
+            .args(["map", "check"])
+            .arg(&site)
+            .arg("--out")
+            .arg(out.join("check"))
+            .arg("--radio-map")
+            .arg(map)
+            .output()
+            .unwrap()
+    };
+    let o = run(&map);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let line = stdout
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("survey coverage"))
+        .unwrap_or_else(|| panic!("no survey coverage line: {stdout}"));
+    // the figures before each "%"
+    let words: Vec<&str> = line.split_whitespace().collect();
+    let shares: Vec<f64> = words
+        .windows(2)
+        .filter(|w| w[1] == "%")
+        .filter_map(|w| w[0].parse::<f64>().ok())
+        .collect();
+    assert_eq!(shares.len(), 4, "{line}");
+    assert!((shares.iter().sum::<f64>() - 100.0).abs() < 0.5, "{line}");
+    // two walks of four minutes pass along the corridors: some of the
+    // floor is near them, and the rooms they never entered are not
+    assert!(shares[0] > 5.0 && shares[0] < 80.0, "{line}");
+    assert!(shares[0] + shares[1] < 100.0, "{line}");
+    assert!(out.join("check/coverage.png").is_file());
+    let o = run(&out.join("nope.json"));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(stderr.contains("nope.json"), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}

@@ -12,6 +12,7 @@ mod normals;
 pub mod plan;
 mod raycast;
 mod rooms;
+pub mod survey_coverage;
 mod walk;
 
 pub use crossings::Crossings;

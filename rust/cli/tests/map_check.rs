@@ -245,6 +245,14 @@ fn a_radio_map_gives_the_survey_coverage() {
     assert!(shares[0] > 5.0 && shares[0] < 80.0, "{line}");
     assert!(shares[0] + shares[1] < 100.0, "{line}");
     assert!(out.join("check/coverage.png").is_file());
+    // calibrate prints the same shares when it writes the map
+    let cal_out = String::from_utf8_lossy(&cal.stdout);
+    let cal_line = cal_out
+        .lines()
+        .find_map(|l| l.strip_prefix("survey coverage, floor 0:"))
+        .unwrap_or_else(|| panic!("calibrate printed no survey coverage: {cal_out}"));
+    let head = |l: &str| l.split(" of the walkable").next().unwrap().trim().to_string();
+    assert_eq!(head(cal_line), head(line), "{cal_line} / {line}");
     let o = run(&out.join("nope.json"));
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success());

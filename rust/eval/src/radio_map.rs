@@ -66,6 +66,7 @@ pub fn build(
         s.reference_scans_skipped
     );
     print_left_out(scans, &s.reference_scan_walks)?;
+    print_survey_coverage(site, scans);
     let mut why: std::collections::BTreeMap<String, usize> = Default::default();
     for r in reports.iter().filter_map(|r| r.rejected.as_deref()) {
         let key = if r.contains("min_samples") {
@@ -169,6 +170,27 @@ pub fn build(
             .with_context(|| format!("writing {}", r.display()))?;
     }
     Ok(())
+}
+
+/// Per floor, the share of the walkable area within 2 m, 2-5 m, 5-10 m
+/// and 10 m or more of the reference scans (`fpbp map check --radio-map`
+/// draws it; docs/survey.md "Checking the coverage").
+fn print_survey_coverage(site: &Site, scans: &fpbp_core::radio::reference_scans::ReferenceScans) {
+    use fpbp_core::map::survey_coverage::SurveyCoverage;
+    for (fs, map) in site.spec.floors.iter().zip(&site.floors) {
+        let pts: Vec<fpbp_core::Vec2> = scans
+            .scans()
+            .iter()
+            .filter(|s| s.floor == fs.id)
+            .map(|s| fpbp_core::Vec2::new(s.x_m, s.y_m))
+            .collect();
+        let sh = SurveyCoverage::of(map, &pts).shares().map(|x| 100.0 * x);
+        println!(
+            "survey coverage, floor {}: {:.1} % of the walkable area within 2 m of the survey, \
+             {:.1} % 2-5 m, {:.1} % 5-10 m, {:.1} % 10 m or more",
+            fs.id, sh[0], sh[1], sh[2], sh[3]
+        );
+    }
 }
 
 /// Reads and resolves a radio map file against `site`; errors name the file.

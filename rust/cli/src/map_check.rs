@@ -231,22 +231,10 @@ fn write_coverage(
         pts.len(),
         cov.cell_m()
     );
-    let (w, h) = (map.width_px(), map.height_px());
-    let mut img = RgbaImage::new(w as u32, h as u32);
-    for j in 0..h {
-        for i in 0..w {
-            let c = match map.feature_px(i as isize, j as isize) {
-                Feature::Wall => WALL,
-                Feature::Door => DOOR,
-                Feature::Walkable => {
-                    let p = map.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5));
-                    cov.band_at(p)
-                        .map_or(Rgba([255, 255, 255, 255]), |b| BAND[b as usize])
-                }
-            };
-            img.put_pixel(i as u32, j as u32, c);
-        }
-    }
+    let img = plan_image(map, |i, j| {
+        let p = map.ics_to_mcs(Vec2::new(i as f64 + 0.5, j as f64 + 0.5));
+        cov.band_at(p).map_or(WHITE, |b| BAND[b as usize])
+    });
     let points: Vec<(f64, f64)> = pts.iter().map(|p| (p.x, p.y)).collect();
     let c = |p: Rgba<u8>| plotters::style::RGBColor(p.0[0], p.0[1], p.0[2]);
     fpbp_eval::plot::floor_figure_png(
@@ -275,6 +263,26 @@ fn write_coverage(
     println!("  coverage          {}", path.display());
     Ok(())
 }
+
+/// The plan at one pixel per plan pixel: walls and doors in their
+/// colours, each walkable pixel (i, j) in `walkable(i, j)`.
+fn plan_image(map: &FloorMap, walkable: impl Fn(usize, usize) -> Rgba<u8>) -> RgbaImage {
+    let (w, h) = (map.width_px(), map.height_px());
+    let mut img = RgbaImage::new(w as u32, h as u32);
+    for j in 0..h {
+        for i in 0..w {
+            let c = match map.feature_px(i as isize, j as isize) {
+                Feature::Wall => WALL,
+                Feature::Door => DOOR,
+                Feature::Walkable => walkable(i, j),
+            };
+            img.put_pixel(i as u32, j as u32, c);
+        }
+    }
+    img
+}
+
+const WHITE: Rgba<u8> = Rgba([255, 255, 255, 255]);
 
 /// The survey-distance bands' colours: under 2 m, 2-5 m, 5-10 m, 10 m or more.
 const BAND: [Rgba<u8>; 4] = [
@@ -400,21 +408,7 @@ pub fn draw_overlay(site: &Site, floor: i32, extra_points: &[(f64, f64)]) -> Rgb
     let Some(map) = site.floor(floor) else {
         return RgbaImage::new(1, 1);
     };
-    let (w, h) = (map.width_px(), map.height_px());
-    let mut img = RgbaImage::new(w as u32, h as u32);
-    for j in 0..h {
-        for i in 0..w {
-            let c = match map.feature_px(i as isize, j as isize) {
-                Feature::Wall => WALL,
-                Feature::Door => DOOR,
-                Feature::Walkable => map
-                    .room_of_px(i, j)
-                    .map(room_colour)
-                    .unwrap_or(Rgba([255, 255, 255, 255])),
-            };
-            img.put_pixel(i as u32, j as u32, c);
-        }
-    }
+    let mut img = plan_image(map, |i, j| map.room_of_px(i, j).map_or(WHITE, room_colour));
     let r = map.pixels_per_meter();
     for g in map.grid() {
         let q = map.mcs_to_ics(*g);

@@ -4,7 +4,8 @@
 //! samples with the other sensors before building the map).
 
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+mod common;
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -14,26 +15,11 @@ fn repo() -> PathBuf {
 fn calibrate_writes_the_magnetic_section_of_a_survey_with_a_magnetometer() {
     let dir = std::env::temp_dir().join(format!("fpbp-calib-rm-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let (site, map) = (dir.join("site.json"), dir.join("radio-map.json"));
-    let out = Command::new(env!("CARGO_BIN_EXE_fpbp"))
-        .arg("calibrate")
-        .arg("--site")
-        .arg(repo().join("maps/demo/site.json"))
-        .arg("--logs")
-        .arg(repo().join("host-tests/logs/demo-walk-1.log.gz"))
-        .arg(repo().join("host-tests/logs/demo-walk-2.log.gz"))
-        .args(["--split", "all", "--out"])
-        .arg(&site)
-        .arg("--radio-map")
-        .arg(&map)
-        .output()
-        .unwrap();
+    let map = dir.join("radio-map.json");
+    let logs = ["demo-walk-1.log.gz", "demo-walk-2.log.gz"]
+        .map(|l| repo().join("host-tests/logs").join(l));
+    let out = common::calibrate_demo(&dir, &logs, "all");
     let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "calibrate failed: {stdout}\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&map).unwrap()).unwrap();
     let magnetic = json

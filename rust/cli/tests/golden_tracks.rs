@@ -18,8 +18,9 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Arc;
+
+mod common;
 
 use fpbp_core::engine::replay::Replayer;
 use fpbp_core::engine::{InitialPosition, Pose};
@@ -112,23 +113,7 @@ fn radio_map(site: &Site, logs: &[PathBuf]) -> EngineData {
     let dir = std::env::temp_dir().join(format!("fpbp-golden-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let map = dir.join("radio-map.json");
-    let out = Command::new(env!("CARGO_BIN_EXE_fpbp"))
-        .arg("calibrate")
-        .arg("--site")
-        .arg(repo().join("maps/demo/site.json"))
-        .arg("--logs")
-        .args(logs)
-        .args(["--split", "even", "--out"])
-        .arg(dir.join("site.json"))
-        .arg("--radio-map")
-        .arg(&map)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "calibrate failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::calibrate_demo(&dir, logs, "even");
     let text = std::fs::read_to_string(&map).unwrap();
     std::fs::remove_dir_all(&dir).ok();
     EngineData::from_json(&text, site, &EngineConfig::default().ble).unwrap()

@@ -4,6 +4,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+mod common;
+
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
 }
@@ -195,24 +197,9 @@ fn plan_without_walkable_pixels_fails() {
 fn a_radio_map_gives_the_survey_coverage() {
     let out = scratch("coverage");
     let (site, map) = (out.join("site.json"), out.join("radio-map.json"));
-    let cal = Command::new(env!("CARGO_BIN_EXE_fpbp"))
-        .arg("calibrate")
-        .arg("--site")
-        .arg(repo().join("maps/demo/site.json"))
-        .arg("--logs")
-        .arg(repo().join("host-tests/logs/demo-walk-1.log.gz"))
-        .arg(repo().join("host-tests/logs/demo-walk-2.log.gz"))
-        .args(["--split", "all", "--out"])
-        .arg(&site)
-        .arg("--radio-map")
-        .arg(&map)
-        .output()
-        .unwrap();
-    assert!(
-        cal.status.success(),
-        "{}",
-        String::from_utf8_lossy(&cal.stderr)
-    );
+    let logs = ["demo-walk-1.log.gz", "demo-walk-2.log.gz"]
+        .map(|l| repo().join("host-tests/logs").join(l));
+    let cal = common::calibrate_demo(&out, &logs, "all");
     let run = |map: &Path| {
         Command::new(env!("CARGO_BIN_EXE_fpbp"))
             .args(["map", "check"])
@@ -251,7 +238,13 @@ fn a_radio_map_gives_the_survey_coverage() {
         .lines()
         .find_map(|l| l.strip_prefix("survey coverage, floor 0:"))
         .unwrap_or_else(|| panic!("calibrate printed no survey coverage: {cal_out}"));
-    let head = |l: &str| l.split(" of the walkable").next().unwrap().trim().to_string();
+    let head = |l: &str| {
+        l.split(" of the walkable")
+            .next()
+            .unwrap()
+            .trim()
+            .to_string()
+    };
     assert_eq!(head(cal_line), head(line), "{cal_line} / {line}");
     let o = run(&out.join("nope.json"));
     let stderr = String::from_utf8_lossy(&o.stderr);

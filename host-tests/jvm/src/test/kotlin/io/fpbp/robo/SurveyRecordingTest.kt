@@ -316,7 +316,8 @@ class SurveyRecordingTest {
         for ((bssid, x, y) in aps) {
             val a = checkNotNull(byId[bssid]) { "AP $bssid not calibrated:\n$out" }
             val err = hypot(a.getDouble("x_m") - x, a.getDouble("y_m") - y)
-            assertTrue("AP $bssid placed %.1f m from where it is:\n$out".format(err), err < 5.0)
+            // the format takes the figure only: calibrate's output holds "%" signs
+            assertTrue("AP $bssid placed ${"%.1f".format(err)} m from where it is:\n$out", err < 5.0)
         }
         // the radio map has WiFi transmitters with grids
         val tx = JSONObject(map.readText()).getJSONArray("transmitters")

@@ -6,6 +6,7 @@
 //! bottom-left): x = x_I / r, y = (H - y_I) / r (eq. 23).
 
 mod crossings;
+pub mod distance_grid;
 mod downsample;
 mod grid;
 mod normals;

@@ -1,12 +1,12 @@
 //! How much of a floor's walkable area lies near the survey: the distance
 //! from each walkable cell to the nearest surveyed position (a radio map's
-//! reference scans, one per second of survey walk), in the bands of
+//! reference scans, one per second of survey walk; to within a cell,
+//! [`super::distance_grid::DistanceGrid`]), in the bands of
 //! docs/tcpf.md "Survey density: what a survey buys". A site engineer reads
 //! it to see where the survey is thin before users walk there.
 
-use std::collections::HashMap;
-
 use super::FloorMap;
+use super::distance_grid::DistanceGrid;
 use crate::Vec2;
 
 /// The bands' upper edges, metres: under 2 m, 2-5 m, 5-10 m, 10 m and more.
@@ -40,14 +40,12 @@ impl SurveyCoverage {
         let cell_m = MIN_CELL_M.max((w * h / MAX_CELLS as f64).sqrt());
         let nx = ((w / cell_m).ceil() as usize).max(1);
         let ny = ((h / cell_m).ceil() as usize).max(1);
-        let reach = SURVEY_BANDS_M[2];
-        // points bucketed by `reach`: every point within `reach` of a cell
-        // lies in the 3 x 3 buckets around it
-        let key = |p: Vec2| ((p.x / reach).floor() as i64, (p.y / reach).floor() as i64);
-        let mut buckets: HashMap<(i64, i64), Vec<Vec2>> = HashMap::new();
-        for p in points.iter().filter(|p| p.x.is_finite() && p.y.is_finite()) {
-            buckets.entry(key(*p)).or_default().push(*p);
-        }
+        let pts: Vec<Vec2> = points
+            .iter()
+            .filter(|p| p.x.is_finite() && p.y.is_finite())
+            .copied()
+            .collect();
+        let grid = DistanceGrid::of_points(&pts, cell_m, SURVEY_BANDS_M[2], MAX_CELLS);
         let mut band = Vec::with_capacity(nx * ny);
         let mut counts = [0usize; 4];
         for j in 0..ny {
@@ -57,16 +55,11 @@ impl SurveyCoverage {
                     band.push(None);
                     continue;
                 }
-                let (bx, by) = key(c);
-                let mut d2 = f64::INFINITY;
-                for dx in -1..=1 {
-                    for dy in -1..=1 {
-                        for p in buckets.get(&(bx + dx, by + dy)).into_iter().flatten() {
-                            d2 = d2.min((p - c).norm_squared());
-                        }
-                    }
-                }
-                let d = d2.sqrt();
+                // beyond the grid's reach: the last band
+                let d = grid
+                    .as_ref()
+                    .and_then(|g| g.distance_m(c))
+                    .unwrap_or(f64::INFINITY);
                 let b = SURVEY_BANDS_M.iter().take_while(|e| d >= **e).count() as u8;
                 counts[b as usize] += 1;
                 band.push(Some(b));

@@ -3,6 +3,7 @@
 
 mod bundle;
 mod calibrate;
+mod config;
 mod demo;
 mod eval;
 mod fingerprint;
@@ -52,6 +53,9 @@ enum Command {
     /// One file with a site, its plans and its radio map for the phone
     /// (docs/formats.md "Site bundle"); `--check` loads one with figures.
     Bundle(bundle::Args),
+    /// An engine's settings as the JSON `--config` reads: the defaults, or
+    /// a config's values with the defaults of what it leaves out.
+    Config(config::Args),
     /// Fingerprint databases for robust-ekf (walked survey logs).
     Fingerprint {
         #[command(subcommand)]
@@ -82,6 +86,7 @@ fn main() {
         Command::Reproduce(a) => reproduce::run(a),
         Command::Fingerprint { command } => fingerprint::run(command),
         Command::Bundle(a) => bundle::run(a),
+        Command::Config(a) => config::run(a),
     };
     if let Err(e) = result {
         eprintln!("error: {}", error_text(&e));

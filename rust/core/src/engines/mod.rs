@@ -16,4 +16,7 @@ pub mod tc_ekf;
 pub mod tcpf;
 
 pub use config::EngineConfig;
-pub use registry::{ENGINE_NAMES, EngineData, build_engine, build_engine_with};
+pub use registry::{
+    ENGINE_NAMES, EngineData, build_engine, build_engine_with, config_sections,
+    engine_settings_json,
+};

@@ -28,6 +28,62 @@ pub const ENGINE_NAMES: &[&str] = &[
     "wifi-wcentroid",
 ];
 
+/// The sections of [`EngineConfig`] engine `name` reads (its settings:
+/// what `fpbp config --engine NAME` prints), in the config's field order.
+/// Errors on an unknown name.
+pub fn config_sections(name: &str) -> Result<&'static [&'static str]> {
+    Ok(match name {
+        "tcpf" => &["seed", "device", "tasks", "pdr", "ble", "ekf", "tcpf"],
+        "scan-knn" => &["tasks", "tcpf"],
+        "fpbp" | "bp" => &["seed", "tasks", "pdr", "ble", "fusion"],
+        "pdr" => &["tasks", "pdr"],
+        "gml" | "trilat" | "frbw" | "ml" | "wcentroid" => &["tasks", "ble"],
+        "wifi-wcentroid" => &["tasks", "ble", "wifi"],
+        "prox-pf" => &["seed", "pdr", "ble", "prox_pf"],
+        "ppsa" => &["seed", "pdr", "ble", "ppsa"],
+        "robust-ekf" | "tc-ekf" => &["tasks", "pdr", "ble", "ekf"],
+        _ => return Err(unknown_engine(name)),
+    })
+}
+
+/// The settings engine `name` reads from `config`, as the JSON text
+/// `--config` takes (pretty-printed, in the config's field order): the
+/// sections of [`config_sections`] with every field written, so a config
+/// read back from it builds the same engine.
+pub fn engine_settings_json(name: &str, config: &EngineConfig) -> Result<String> {
+    fn pretty<T: serde::Serialize>(v: &T) -> Result<String> {
+        serde_json::to_string_pretty(v).map_err(|e| Error::Input(format!("config: {e}")))
+    }
+    let mut out = String::from("{");
+    for (k, section) in config_sections(name)?.iter().enumerate() {
+        let text = match *section {
+            "seed" => pretty(&config.seed)?,
+            "device" => pretty(&config.device)?,
+            "tasks" => pretty(&config.tasks)?,
+            "pdr" => pretty(&config.pdr)?,
+            "ble" => pretty(&config.ble)?,
+            "fusion" => pretty(&config.fusion)?,
+            "prox_pf" => pretty(&config.prox_pf)?,
+            "ppsa" => pretty(&config.ppsa)?,
+            "ekf" => pretty(&config.ekf)?,
+            "wifi" => pretty(&config.wifi)?,
+            "tcpf" => pretty(&config.tcpf)?,
+            other => unreachable!("config_sections names no section `{other}`"),
+        };
+        let sep = if k == 0 { "" } else { "," };
+        out.push_str(&format!(
+            "{sep}\n  \"{section}\": {}",
+            text.replace('\n', "\n  ")
+        ));
+    }
+    out.push_str("\n}\n");
+    Ok(out)
+}
+
+fn unknown_engine(name: &str) -> Error {
+    Error::UnknownEngine(name.to_string(), ENGINE_NAMES.join(", "))
+}
+
 /// Data some engines can use besides site and config (handed as parsed
 /// structs: the core does no I/O).
 #[derive(Debug, Clone, Default)]
@@ -140,12 +196,7 @@ pub fn build_engine_with(
                 None => super::robust_ekf::RobustEkfEngine::new(site, config, init)?,
             }),
             "tc-ekf" => Box::new(super::tc_ekf::TcEkfEngine::new(site, config, init)?),
-            _ => {
-                return Err(Error::UnknownEngine(
-                    name.to_string(),
-                    ENGINE_NAMES.join(", "),
-                ));
-            }
+            _ => return Err(unknown_engine(name)),
         }
     };
     Ok(Box::new(CountedInputs::new(engine)))
@@ -157,6 +208,35 @@ mod tests {
     use crate::engine::replay::replay;
     use crate::engines::prox_pf::testkit::{site, walk_north};
     use crate::events::{BleObservation, LogEvent, SensorData, SensorEvent, WifiResult, WifiScan};
+
+    #[test]
+    fn every_engine_prints_settings_that_read_back_as_the_defaults() {
+        let defaults = EngineConfig::default();
+        for name in ENGINE_NAMES {
+            let text = engine_settings_json(name, &defaults).unwrap();
+            let back =
+                EngineConfig::from_json(&text).unwrap_or_else(|e| panic!("{name}: {e}\n{text}"));
+            assert_eq!(back, defaults, "{name}");
+        }
+        let mut other = EngineConfig::default();
+        other.tcpf.particle_count = 7;
+        other.seed = 9;
+        let text = engine_settings_json("tcpf", &other).unwrap();
+        assert_eq!(EngineConfig::from_json(&text).unwrap(), other);
+        let pdr: serde_json::Value =
+            serde_json::from_str(&engine_settings_json("pdr", &defaults).unwrap()).unwrap();
+        let keys: Vec<&str> = pdr
+            .as_object()
+            .unwrap()
+            .keys()
+            .map(|k| k.as_str())
+            .collect();
+        assert_eq!(keys, ["pdr", "tasks"], "sorted by serde_json's map");
+        assert!(matches!(
+            engine_settings_json("nope", &defaults),
+            Err(Error::UnknownEngine(..))
+        ));
+    }
 
     fn scan(t_ns: i64, n: usize) -> LogEvent {
         LogEvent::Wifi(WifiScan {

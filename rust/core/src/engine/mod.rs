@@ -136,8 +136,8 @@ pub struct EngineStats {
     /// model, dB), for engines that estimate one (`tcpf`).
     #[serde(default)]
     pub rssi_offset_db: Option<f64>,
-    /// The factor the engine multiplies the PDR's step lengths by, learned
-    /// online (`tcpf`; 1 when its `online_step` is off).
+    /// The factor the engine multiplies the PDR's step lengths by, for an
+    /// engine that learns one online (none does today: `None`).
     #[serde(default)]
     pub step_scale: Option<f64>,
     /// How far the engine trusts its radio in [0, 1] (`tcpf`: 1 unless

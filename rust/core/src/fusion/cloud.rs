@@ -362,32 +362,6 @@ impl Cloud {
         Some(s)
     }
 
-    /// Weighted geometric median of the particles (the point with the least
-    /// weighted sum of distances: the estimate with the least expected
-    /// error in metres), by `iters` Weiszfeld steps from the weighted mean.
-    /// Distances are floored at 1 cm so a step never divides by zero.
-    pub fn geometric_median(&self, iters: usize) -> Option<Vec2> {
-        let mut x = self.mean()?;
-        for _ in 0..iters {
-            let (mut s, mut wsum) = (Vec2::zeros(), 0.0);
-            for (p, w) in self.positions.iter().zip(&self.weights) {
-                let k = w / (p - x).norm().max(0.01);
-                s += p * k;
-                wsum += k;
-            }
-            if wsum.is_nan() || wsum <= 0.0 {
-                break;
-            }
-            let next = s / wsum;
-            let moved = (next - x).norm();
-            x = next;
-            if moved < 1e-3 {
-                break;
-            }
-        }
-        Some(x)
-    }
-
     /// Root-mean-square distance of the particles from their weighted mean, metres.
     pub fn spread_m(&self) -> f64 {
         let Some(m) = self.mean() else { return 0.0 };

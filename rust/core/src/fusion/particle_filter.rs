@@ -203,11 +203,6 @@ impl ParticleFilter {
         self.cloud.mean()
     }
 
-    /// Weighted geometric median of the particles ([`Cloud::geometric_median`]).
-    pub fn geometric_median(&self, iters: usize) -> Option<Vec2> {
-        self.cloud.geometric_median(iters)
-    }
-
     /// Root-mean-square distance of the particles from their weighted mean, metres.
     pub fn spread_m(&self) -> f64 {
         self.cloud.spread_m()

@@ -61,15 +61,6 @@ pub struct LikelihoodConfig {
     pub tempering_decay: f64,
     /// At most this many transmitters (the strongest) per update.
     pub max_transmitters: usize,
-    /// Non-detection: a transmitter of a radio that was scanning but was
-    /// not heard is evidence against positions where it should be strong.
-    /// P(detect) = logistic((mu + offset - sensitivity) / scale); a miss
-    /// contributes `miss_weight` * ln max(1 - P(detect), `miss_prob_min`).
-    pub ble_sensitivity_dbm: f64,
-    pub wifi_sensitivity_dbm: f64,
-    pub sensitivity_scale_db: f64,
-    pub miss_prob_min: f64,
-    pub miss_weight: f64,
     /// Weight of the -ln sd normaliser of each residual (1: the density
     /// as it is). Below 1 a place whose spread is wide because it lies
     /// far from the survey walks pays less for that width on every scan:
@@ -91,11 +82,6 @@ impl Default for LikelihoodConfig {
             tempering_ref: 4.0,
             tempering_decay: 0.5,
             max_transmitters: 40,
-            ble_sensitivity_dbm: -92.0,
-            wifi_sensitivity_dbm: -88.0,
-            sensitivity_scale_db: 4.0,
-            miss_prob_min: 0.1,
-            miss_weight: 0.0,
             sd_norm_weight: 1.0,
         }
     }
@@ -132,24 +118,7 @@ impl LikelihoodConfig {
                 ));
             }
         }
-        for (f, v, lo, hi) in [
-            ("ble_sensitivity_dbm", self.ble_sensitivity_dbm, -200.0, 0.0),
-            (
-                "wifi_sensitivity_dbm",
-                self.wifi_sensitivity_dbm,
-                -200.0,
-                0.0,
-            ),
-            (
-                "sensitivity_scale_db",
-                self.sensitivity_scale_db,
-                0.1,
-                100.0,
-            ),
-            ("miss_prob_min", self.miss_prob_min, 1e-6, 1.0),
-            ("miss_weight", self.miss_weight, 0.0, 100.0),
-            ("sd_norm_weight", self.sd_norm_weight, 0.0, 1.0),
-        ] {
+        for (f, v, lo, hi) in [("sd_norm_weight", self.sd_norm_weight, 0.0, 1.0)] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
                 return Err(crate::Error::config(
                     format!("tcpf.likelihood.{f}"),
@@ -201,35 +170,6 @@ pub fn log_likelihood(
         }
     }
     s
-}
-
-/// Log-likelihood at `p` of not having heard the transmitters `missing`
-/// (indices in `model`, each with its radio's sensitivity) with phone
-/// offset `offset_db`, untempered: sum of `miss_weight` * ln P(miss).
-pub fn missing_log_likelihood(
-    model: &dyn RadioModel,
-    cfg: &LikelihoodConfig,
-    missing: &[(usize, f64)],
-    floor: i32,
-    p: Vec2,
-    offset_db: f64,
-) -> f64 {
-    if cfg.miss_weight == 0.0 {
-        return 0.0;
-    }
-    let inv = 1.0 / cfg.sensitivity_scale_db;
-    let mut s = 0.0;
-    for &(tx, sens) in missing {
-        if let Some((mu, _)) = model.expected(tx, floor, p) {
-            let z = (mu + offset_db - sens) * inv;
-            if z < -6.0 {
-                continue;
-            }
-            let p_det = 1.0 / (1.0 + (-z).exp());
-            s += (1.0 - p_det).max(cfg.miss_prob_min).ln();
-        }
-    }
-    cfg.miss_weight * s
 }
 
 /// `out -= half_nu1 ln(prod) + sd_w ln(sd_prod)` (without `sd_prod`: `out -=

@@ -50,7 +50,7 @@ pub mod walk_offsets;
 pub mod wall_prior;
 pub mod window;
 
-pub use likelihood::{LikelihoodConfig, Measurement, missing_log_likelihood};
+pub use likelihood::{LikelihoodConfig, Measurement};
 pub use model::{PathLossModel, RadioModel, Transmitter, TxKind};
 pub use offset::PhoneOffset;
 pub use radio_map::{RadioMap, RadioMapBuilder, RadioMapConfig};

@@ -33,12 +33,6 @@ pub struct OffsetConfig {
     /// Prior mean and standard deviation of the offset, dB.
     pub prior_db: f64,
     pub prior_sd_db: f64,
-    /// The prior's standard deviation when the engine starts at a told
-    /// position (`InitialPosition`) before any reading moved the offset:
-    /// the offset then moves more slowly in the first updates, and absorbs
-    /// less of a map that is wrong where the walk begins. At most
-    /// `prior_sd_db`; 0 (default) = `prior_sd_db`.
-    pub prior_sd_db_told: f64,
     /// The estimate is clamped to +- this, dB.
     pub max_abs_db: f64,
     /// Random walk of the offset, dB per sqrt(second).
@@ -50,28 +44,12 @@ pub struct OffsetConfig {
     pub min_expected_dbm: f64,
     /// At least this many usable transmitters per observation.
     pub min_transmitters: usize,
-    /// Each particle carries its own offset (drawn at the start and on
-    /// re-seeding from the offset profiled at its cell, random-walking by
-    /// `particle_walk_db_per_sqrt_s`), and the likelihood uses it: position
-    /// and offset are resolved jointly. The reported offset is the
-    /// particles' weighted mean; the median-residual observation above is
-    /// not used (false: one offset for the whole cloud).
-    pub per_particle: bool,
-    /// ... and also whenever the model is the path-loss model (no radio
-    /// map): there it helps (tuning sims 3.76 -> 2.87 m, ILC F1 / IPIN even
-    /// halves without a map 7.84 -> 6.90 / 10.41 -> 9.98 m), with a radio
-    /// map it costs (F1 / IPIN odd 0.1-0.2 m).
-    pub per_particle_without_map: bool,
     /// Random walk of each particle's offset, dB per sqrt(second).
     pub particle_walk_db_per_sqrt_s: f64,
     /// A particle drawn from a cell at a start or re-seeding gets the
     /// cell's profiled offset plus this times its posterior sd times
     /// N(0, 1).
     pub particle_start_spread: f64,
-    /// Re-seeded particles profile their offset under the prior
-    /// (`prior_db`, `prior_sd_db`) rather than the cloud's current belief
-    /// (a lost cloud's offset is not to be trusted).
-    pub reseed_from_prior: bool,
     /// With one offset for the whole cloud (a radio map): while the
     /// belief's mean lies more than this many prior sds from the prior's
     /// mean (a belief the prior finds unlikely, as a lost cloud learns
@@ -87,17 +65,13 @@ impl Default for OffsetConfig {
             enabled: true,
             prior_db: 0.0,
             prior_sd_db: 4.0,
-            prior_sd_db_told: 0.0,
             max_abs_db: 15.0,
             walk_db_per_sqrt_s: 0.05,
             noise_scale: 1.5,
             noise_floor_db: 3.0,
             min_expected_dbm: -88.0,
             min_transmitters: 2,
-            per_particle: false,
-            per_particle_without_map: true,
             particle_walk_db_per_sqrt_s: 0.15,
-            reseed_from_prior: false,
             reseed_prior_beyond_sd: 2.0,
             particle_start_spread: 0.0,
         }
@@ -110,7 +84,6 @@ impl OffsetConfig {
         for (f, v, lo, hi) in [
             ("prior_db", self.prior_db, -40.0, 40.0),
             ("prior_sd_db", self.prior_sd_db, 0.01, 40.0),
-            ("prior_sd_db_told", self.prior_sd_db_told, 0.0, 40.0),
             ("max_abs_db", self.max_abs_db, 0.0, 60.0),
             ("walk_db_per_sqrt_s", self.walk_db_per_sqrt_s, 0.0, 10.0),
             ("noise_scale", self.noise_scale, 0.0, 100.0),
@@ -200,16 +173,6 @@ impl PhoneOffset {
         }
     }
 
-    /// Back to the prior with standard deviation `prior_sd_db_told` (the
-    /// start at a told position), when no reading has moved the belief
-    /// yet; nothing otherwise, or when that option is 0.
-    pub fn tighten_for_told_start(&mut self) {
-        let sd = self.cfg.prior_sd_db_told;
-        if self.updates == 0 && sd > 0.0 {
-            self.set(self.cfg.prior_db, sd);
-        }
-    }
-
     /// Absorbs one update's residuals `(residual dB, expected dBm, sd dB)`
     /// (residual = heard - expected at the cloud, before any offset) at
     /// `t_ns`. Returns whether it was used.
@@ -273,38 +236,5 @@ mod tests {
         });
         assert!(!off.observe(0, &[(5.0, -60.0, 6.0), (5.0, -60.0, 6.0)]));
         assert_eq!(off.mean_db(), 0.0);
-    }
-
-    #[test]
-    fn a_told_start_tightens_the_prior_only_before_the_first_reading() {
-        let cfg = OffsetConfig {
-            prior_sd_db_told: 2.0,
-            ..OffsetConfig::default()
-        };
-        let mut o = PhoneOffset::new(&cfg);
-        assert_eq!(o.sd_db(), cfg.prior_sd_db);
-        o.tighten_for_told_start();
-        assert!((o.sd_db() - cfg.prior_sd_db_told).abs() < 1e-12);
-        assert_eq!(o.mean_db(), cfg.prior_db);
-        // a tap after readings keeps what they taught
-        let mut moved = PhoneOffset::new(&cfg);
-        assert!(moved.observe(0, &[(-8.0, -60.0, 6.0), (-8.0, -60.0, 6.0)]));
-        let (m, sd) = (moved.mean_db(), moved.sd_db());
-        moved.tighten_for_told_start();
-        assert_eq!((moved.mean_db(), moved.sd_db()), (m, sd));
-        // 0: the prior as configured; above `prior_sd_db`: `prior_sd_db`
-        for (told, want) in [(0.0, 4.0), (9.0, 4.0)] {
-            let mut o = PhoneOffset::new(&OffsetConfig {
-                prior_sd_db_told: told,
-                ..OffsetConfig::default()
-            });
-            o.tighten_for_told_start();
-            assert!((o.sd_db() - want).abs() < 1e-12, "{told}: {}", o.sd_db());
-        }
-        let bad = OffsetConfig {
-            prior_sd_db_told: -1.0,
-            ..OffsetConfig::default()
-        };
-        assert!(bad.validate().is_err());
     }
 }

@@ -11,7 +11,6 @@ use crate::radio::offset::OffsetConfig;
 use crate::radio::reference_scans::ScanMetric;
 
 use super::integrity::IntegrityConfig;
-use super::step_scale::OnlineStepConfig;
 
 /// Settings of engine `tcpf`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -26,9 +25,6 @@ pub struct TcpfConfig {
     /// its random walk per step.
     pub heading_offset_sd_rad: f64,
     pub heading_offset_walk_rad: f64,
-    /// Per-particle step-length scale (sd at the start) and its walk.
-    pub step_scale_sd: f64,
-    pub step_scale_walk: f64,
     /// Gaussian position noise added to every move (roughening), metres.
     pub position_noise_m: f64,
     /// Resample when the effective sample size falls below this fraction.
@@ -49,9 +45,6 @@ pub struct TcpfConfig {
     pub recovery_alpha_slow: f64,
     pub recovery_alpha_fast: f64,
     pub recovery_max_fraction: f64,
-    /// ... and only when the likelihood surface's best cell beats the
-    /// cloud's mean likelihood by more than this (tempered log units).
-    pub recovery_margin: f64,
     /// ... and only while the moving share of particles killed by walls
     /// per step is at least this (the map says the cloud is lost; the
     /// radio alone is too biased on real sites to say so).
@@ -64,13 +57,6 @@ pub struct TcpfConfig {
     /// global start, not a told position): what the radio placed, the
     /// radio may move with less evidence.
     pub recovery_global_radio_alone_margin: f64,
-    /// On a floor without inner walls the radio alone decides (nothing
-    /// else can say the cloud is lost) unless the cloud was placed at a
-    /// told position (`InitialPosition`, `set_position`): after that only
-    /// beyond `recovery_radio_alone_margin`, as on a walled floor whose
-    /// walls the steps fit. A tap on the map outranks a radio that is
-    /// biased away from the survey's routes.
-    pub recovery_told_open_floor: bool,
     /// After a told start (`InitialPosition`, `set_position`): the told
     /// position moved by every step since (no walls, no radio) and a reach
     /// around it of `told_reach_m` + `told_reach_per_walked` x the distance
@@ -99,10 +85,6 @@ pub struct TcpfConfig {
     pub told_reach_scale_hi: f64,
     /// See `told_reach_wedge`, rad.
     pub told_reach_turn_rad: f64,
-    /// The radio-alone test also runs every this many radio updates
-    /// without a likelihood dip (0 = only after a dip; each run evaluates
-    /// the whole surface).
-    pub recovery_check_every: u32,
     /// Without a barometer, a floor change needs this many consecutive
     /// radio updates voting for the other floor.
     pub floor_switch_votes: u32,
@@ -127,15 +109,6 @@ pub struct TcpfConfig {
     /// from the published point, times `accuracy_scale`, at least
     /// `accuracy_min_m`.
     pub accuracy_quantile: f64,
-    /// The published point is the weighted mean of the particles around
-    /// the heaviest 3 x 3 block of `mode_bin_m` squares (the cloud's main
-    /// mode); 0 = the weighted mean of all particles.
-    pub mode_bin_m: f64,
-    /// With `mode_bin_m` 0: the published point is the particles' weighted
-    /// geometric median after this many Weiszfeld steps from the weighted
-    /// mean (the least expected error in metres of a cloud split over two
-    /// places); 0 = the weighted mean.
-    pub median_iters: usize,
     pub accuracy_scale: f64,
     pub accuracy_min_m: f64,
     /// After a global start the radius keeps a memory of how wide the
@@ -147,26 +120,14 @@ pub struct TcpfConfig {
     pub start_accuracy_share: f64,
     /// See `start_accuracy_share`, s.
     pub start_accuracy_decay_s: f64,
-    /// Converged cloud, weaker radio: the tempered log-likelihood is
-    /// scaled by c + (1 - c) g, g = clamp((spread - lo) / (hi - lo), 0, 1)
-    /// of the cloud's RMS spread before the update (c =
-    /// `converged_radio_scale`; 1 = no adaptation).
-    pub converged_radio_scale: f64,
-    pub converged_spread_lo_m: f64,
-    pub converged_spread_hi_m: f64,
     /// Only WiFi results at most this old (vs their scan) are used, s; an
     /// AP not heard for this long while WiFi scans counts as missed.
     pub wifi_max_age_s: f64,
-    /// A beacon not heard for this long while BLE scans counts as missed, s.
-    pub ble_miss_after_s: f64,
     /// Readings weaker than this are not used, dBm.
     pub min_rssi_dbm: f64,
     pub likelihood: LikelihoodConfig,
     pub offset: OffsetConfig,
     pub anchors: AnchorConfig,
-    pub magnetic: MagneticConfig,
-    /// The user's step length learned online (module `step_scale`).
-    pub online_step: OnlineStepConfig,
     /// The radio checked against the walk (module `integrity`).
     pub integrity: IntegrityConfig,
     /// The particle count adapted to the cloud's extent (KLD-sampling,
@@ -174,55 +135,6 @@ pub struct TcpfConfig {
     /// start), few once it has converged; `max_particles` 0 keeps
     /// `particle_count` throughout.
     pub adaptive_count: KldConfig,
-}
-
-/// The magnetic likelihood: with a radio map that carries the survey's
-/// magnetic field ([`crate::radio::magnetic_map`]), each fusion task in
-/// which the walker stepped weighs every particle by the mean |B| of the
-/// task's magnetometer samples against the map at the particle, a
-/// Student-t in uT, less one phone offset learned online.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(default, deny_unknown_fields)]
-pub struct MagneticConfig {
-    /// Exponent of the magnetic likelihood per update (0 = off; below 1
-    /// tempers for the field's correlation from one step to the next).
-    pub weight: f64,
-    /// Student-t degrees of freedom.
-    pub nu: f64,
-    /// Spread added in quadrature to the map's, uT (the phone's noise and
-    /// the offset's doubt).
-    pub extra_sd_ut: f64,
-    /// Gain of the online phone offset per update, and its bound, uT.
-    pub offset_gain: f64,
-    pub max_offset_ut: f64,
-}
-
-impl Default for MagneticConfig {
-    fn default() -> Self {
-        MagneticConfig {
-            weight: 0.0,
-            nu: 4.0,
-            extra_sd_ut: 2.0,
-            offset_gain: 0.05,
-            max_offset_ut: 20.0,
-        }
-    }
-}
-
-impl MagneticConfig {
-    /// Checks every field; errors name `tcpf.magnetic.<field>`.
-    pub fn validate(&self) -> Result<()> {
-        for (f, v, lo, hi) in [
-            ("weight", self.weight, 0.0, 10.0),
-            ("nu", self.nu, 0.5, 1000.0),
-            ("extra_sd_ut", self.extra_sd_ut, 0.0, 100.0),
-            ("offset_gain", self.offset_gain, 0.0, 1.0),
-            ("max_offset_ut", self.max_offset_ut, 0.0, 200.0),
-        ] {
-            crate::bounds::check_range(&format!("tcpf.magnetic.{f}"), v, lo, hi)?;
-        }
-        Ok(())
-    }
 }
 
 /// Anchors: the k reference scans of the radio map closest to the phone's
@@ -247,8 +159,6 @@ pub struct AnchorConfig {
     /// Exponent of the mixture in each radio update (0 = start and
     /// re-seeding only).
     pub weight: f64,
-    /// Exponent of the mixture on the global start's cell weights.
-    pub start_weight: f64,
     /// The start floor is the anchors' heaviest floor.
     pub start_floor: bool,
     /// Floor votes after the start come from the anchors (their heaviest
@@ -259,10 +169,6 @@ pub struct AnchorConfig {
     /// floor move the track there even when the barometer saw no change
     /// (a wrong start floor is otherwise kept for good; 0 = never).
     pub floor_force_votes: u32,
-    /// `floor_force_votes` also after a told start. False: the told floor
-    /// changes only as the barometer says, until the walls say the told
-    /// position was wrong (when the told reach is dropped).
-    pub floor_force_after_told: bool,
     /// With reference scans, the start waits up to this long (after the
     /// first radio update) for a query with candidates, s.
     pub start_wait_s: f64,
@@ -271,19 +177,6 @@ pub struct AnchorConfig {
     /// transmitter, the cloud is not re-seeded from the likelihood surface
     /// (there the radio map is its own extrapolation). 0 = off.
     pub far_db: f64,
-    /// `far_db` while the cloud comes from a told position
-    /// (`InitialPosition`, `set_position`) rather than from the radio: a
-    /// tap on the map outranks a window that matches the survey only
-    /// loosely, so the surface re-seeds and the survey's lines pull only
-    /// where the window is this close to a reference scan. 0 = off.
-    pub far_db_told: f64,
-    /// A query whose closest reference scan is more than this (RMS dB)
-    /// from the phone's window gives no anchors: its candidates are the
-    /// least bad of scans that share almost nothing with the phone's (a
-    /// place the survey never went), so they neither shape the start
-    /// (which then does not wait for them) nor weigh the particles, vote
-    /// the floor or widen the accuracy radius. 0 = off.
-    pub drop_far_db: f64,
     /// Far from the survey (`far_db`), the survey's own walked lines are
     /// where the phone is least likely: had it been there, its window
     /// would resemble their scans. Each radio update then takes
@@ -294,39 +187,17 @@ pub struct AnchorConfig {
     pub far_survey_penalty: f64,
     /// See `far_survey_penalty`, m.
     pub far_survey_sigma_m: f64,
-    /// Re-seeding: when the cloud's support (its weighted mean of the
-    /// mixture over the mixture's peak) stays below `reseed_support` for
-    /// `reseed_after` radio updates, `reseed_fraction` of the particles
-    /// are drawn around the candidates.
-    pub reseed_support: f64,
-    pub reseed_after: u32,
-    pub reseed_fraction: f64,
-    /// The query's RSSI less the phone offset estimate.
-    pub use_offset: bool,
     /// Accuracy radius: the cloud's radius and this share of the distance
     /// from the published point to the anchors' mean, added in
     /// quadrature (a track the fingerprints disagree with is less sure
     /// than its cloud says; 0 = the cloud alone).
     pub accuracy_share: f64,
-    /// Accuracy radius: plus this many metres per dB of RMS RSSI
-    /// difference between the phone's window and the closest reference
-    /// scan beyond `accuracy_free_db`, in quadrature (the survey never
-    /// went where the phone hears this; 0 = off).
-    pub accuracy_per_db_m: f64,
-    pub accuracy_free_db: f64,
     /// How the query ranks and weighs the reference scans
     /// (`rms_db` or `bray_curtis_powed`).
     pub metric: ScanMetric,
     /// Candidate weight exp(-(s - s_best) / tau_powed) of its Bray-Curtis
     /// score s (in [0, 1]) under `bray_curtis_powed`.
     pub tau_powed: f64,
-    /// Once the cloud has started, the reference-scan query runs at most
-    /// once per this many seconds; the radio updates between reuse the
-    /// last query's candidates, moved by the steps walked since (a query
-    /// that gave none is repeated at the next radio task). 0 = at every
-    /// radio task. The query's postings walk is most of the radio task's
-    /// time (docs/lab/tcpf-speed.md "Speed, stop 33").
-    pub query_period_s: f64,
 }
 
 impl Default for AnchorConfig {
@@ -338,27 +209,16 @@ impl Default for AnchorConfig {
             sigma_m: 8.0,
             floor: 0.05,
             weight: 3.0,
-            start_weight: 1.0,
             start_floor: true,
             floor_vote_share: 0.5,
             floor_force_votes: 5,
-            floor_force_after_told: false,
             start_wait_s: 5.0,
             far_db: 12.0,
-            far_db_told: 12.0,
-            drop_far_db: 0.0,
             far_survey_penalty: 3.0,
             far_survey_sigma_m: 4.0,
-            reseed_support: 0.1,
-            reseed_after: 3,
-            reseed_fraction: 0.0,
-            use_offset: true,
             accuracy_share: 0.4,
-            accuracy_per_db_m: 0.0,
-            accuracy_free_db: 6.0,
             metric: ScanMetric::BrayCurtisPowed,
             tau_powed: 0.2,
-            query_period_s: 0.0,
         }
     }
 }
@@ -379,32 +239,23 @@ impl AnchorConfig {
             ("sigma_m", self.sigma_m, 0.1, 100.0),
             ("floor", self.floor, 1e-9, 10.0),
             ("weight", self.weight, 0.0, 100.0),
-            ("start_weight", self.start_weight, 0.0, 100.0),
             ("start_wait_s", self.start_wait_s, 0.0, 600.0),
             ("far_db", self.far_db, 0.0, 1000.0),
-            ("far_db_told", self.far_db_told, 0.0, 1000.0),
-            ("drop_far_db", self.drop_far_db, 0.0, 1000.0),
             ("far_survey_penalty", self.far_survey_penalty, 0.0, 100.0),
             ("far_survey_sigma_m", self.far_survey_sigma_m, 0.5, 50.0),
             ("floor_vote_share", self.floor_vote_share, 0.0, 1.0),
-            ("reseed_support", self.reseed_support, 0.0, 1.0),
-            ("reseed_fraction", self.reseed_fraction, 0.0, 1.0),
             ("accuracy_share", self.accuracy_share, 0.0, 10.0),
-            ("accuracy_per_db_m", self.accuracy_per_db_m, 0.0, 100.0),
-            ("accuracy_free_db", self.accuracy_free_db, 0.0, 200.0),
             ("tau_powed", self.tau_powed, 1e-4, 10.0),
-            ("query_period_s", self.query_period_s, 0.0, 600.0),
         ] {
             crate::bounds::check_range(&format!("tcpf.anchors.{f}"), v, lo, hi)?;
         }
         if self.k > 256
             || !(1..=1024).contains(&self.min_transmitters)
-            || self.reseed_after > 1000
             || self.floor_force_votes > 1000
         {
             return Err(crate::Error::config(
                 "tcpf.anchors.k",
-                "k must be <= 256, min_transmitters in 1..=1024, reseed_after and floor_force_votes <= 1000",
+                "k must be <= 256, min_transmitters in 1..=1024, floor_force_votes <= 1000",
             ));
         }
         Ok(())
@@ -419,8 +270,6 @@ impl Default for TcpfConfig {
             heading_noise_rad: 0.15,
             heading_offset_sd_rad: 0.15,
             heading_offset_walk_rad: 0.01,
-            step_scale_sd: 0.0,
-            step_scale_walk: 0.0,
             position_noise_m: 0.2,
             resample_ess_fraction: 0.5,
             cell_m: 2.0,
@@ -430,11 +279,9 @@ impl Default for TcpfConfig {
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.5,
             recovery_max_fraction: 0.1,
-            recovery_margin: 0.0,
             recovery_min_wall_kill: 0.3,
             recovery_radio_alone_margin: 20.0,
             recovery_global_radio_alone_margin: 8.0,
-            recovery_told_open_floor: false,
             told_reach_m: 3.0,
             told_reach_per_walked: 0.1,
             told_reach_weight: 10.0,
@@ -442,30 +289,21 @@ impl Default for TcpfConfig {
             told_reach_scale_lo: 0.8,
             told_reach_scale_hi: 1.4,
             told_reach_turn_rad: 0.2,
-            recovery_check_every: 0,
             floor_switch_votes: 3,
             floor_snap_m: 5.0,
             floor_keep_off_map: true,
             max_hold_runs: 5,
             hold_max_accuracy_m: 24.0,
             accuracy_quantile: 0.68,
-            mode_bin_m: 0.0,
-            median_iters: 0,
             accuracy_scale: 1.6,
             accuracy_min_m: 1.6,
             start_accuracy_share: 0.25,
             start_accuracy_decay_s: 30.0,
-            converged_radio_scale: 1.0,
-            converged_spread_lo_m: 3.0,
-            converged_spread_hi_m: 8.0,
             wifi_max_age_s: 4.0,
-            ble_miss_after_s: 3.0,
             min_rssi_dbm: -100.0,
             likelihood: LikelihoodConfig::default(),
             offset: OffsetConfig::default(),
             anchors: AnchorConfig::default(),
-            magnetic: MagneticConfig::default(),
-            online_step: OnlineStepConfig::default(),
             integrity: IntegrityConfig::default(),
             adaptive_count: KldConfig::default(),
         }
@@ -479,12 +317,6 @@ impl TcpfConfig {
             return Err(crate::Error::config(
                 "tcpf.particle_count",
                 format!("must be in 1..=100000, got {}", self.particle_count),
-            ));
-        }
-        if self.median_iters > 1000 {
-            return Err(crate::Error::config(
-                "tcpf.median_iters",
-                format!("must be in 0..=1000, got {}", self.median_iters),
             ));
         }
         for (f, v, lo, hi) in [
@@ -502,8 +334,6 @@ impl TcpfConfig {
                 0.0,
                 1.0,
             ),
-            ("step_scale_sd", self.step_scale_sd, 0.0, 1.0),
-            ("step_scale_walk", self.step_scale_walk, 0.0, 1.0),
             ("position_noise_m", self.position_noise_m, 0.0, 10.0),
             (
                 "resample_ess_fraction",
@@ -511,7 +341,6 @@ impl TcpfConfig {
                 0.0,
                 1.0,
             ),
-            ("recovery_margin", self.recovery_margin, 0.0, 1e6),
             (
                 "recovery_min_wall_kill",
                 self.recovery_min_wall_kill,
@@ -553,7 +382,6 @@ impl TcpfConfig {
             ),
             ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
             ("floor_snap_m", self.floor_snap_m, 0.0, 50.0),
-            ("mode_bin_m", self.mode_bin_m, 0.0, 100.0),
             ("hold_max_accuracy_m", self.hold_max_accuracy_m, 0.0, 1e6),
             ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
             ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
@@ -564,26 +392,7 @@ impl TcpfConfig {
                 0.1,
                 3600.0,
             ),
-            (
-                "converged_radio_scale",
-                self.converged_radio_scale,
-                0.0,
-                10.0,
-            ),
-            (
-                "converged_spread_lo_m",
-                self.converged_spread_lo_m,
-                0.0,
-                1000.0,
-            ),
-            (
-                "converged_spread_hi_m",
-                self.converged_spread_hi_m,
-                0.0,
-                1000.0,
-            ),
             ("wifi_max_age_s", self.wifi_max_age_s, 0.0, 600.0),
-            ("ble_miss_after_s", self.ble_miss_after_s, 0.0, 600.0),
             ("min_rssi_dbm", self.min_rssi_dbm, -200.0, 0.0),
         ] {
             if !(v.is_finite() && (lo..=hi).contains(&v)) {
@@ -592,12 +401,6 @@ impl TcpfConfig {
                     format!("must be in [{lo}, {hi}], got {v}"),
                 ));
             }
-        }
-        if self.converged_spread_lo_m >= self.converged_spread_hi_m {
-            return Err(crate::Error::config(
-                "tcpf.converged_spread_lo_m",
-                "must be below converged_spread_hi_m",
-            ));
         }
         if self.recovery_alpha_slow > self.recovery_alpha_fast {
             return Err(crate::Error::config(
@@ -611,12 +414,6 @@ impl TcpfConfig {
                 "must be in 1..=64",
             ));
         }
-        if self.recovery_check_every > 1000 {
-            return Err(crate::Error::config(
-                "tcpf.recovery_check_every",
-                "must be in 0..=1000",
-            ));
-        }
         if self.floor_switch_votes > 1000 || self.max_hold_runs > 1000 {
             return Err(crate::Error::config(
                 "tcpf.floor_switch_votes",
@@ -625,8 +422,6 @@ impl TcpfConfig {
         }
         self.likelihood.validate()?;
         self.anchors.validate()?;
-        self.magnetic.validate()?;
-        self.online_step.validate()?;
         self.integrity.validate()?;
         self.adaptive_count.validate("tcpf.adaptive_count")?;
         self.offset.validate()
@@ -641,8 +436,8 @@ impl TcpfConfig {
             heading_offset_sd_rad: self.heading_offset_sd_rad,
             heading_offset_walk_rad: self.heading_offset_walk_rad,
             heading_offset_corr_steps: 0.0,
-            step_scale_sd: self.step_scale_sd,
-            step_scale_walk: self.step_scale_walk,
+            step_scale_sd: 0.0,
+            step_scale_walk: 0.0,
             resample_ess_fraction: self.resample_ess_fraction,
             ..FusionConfig::default()
         }

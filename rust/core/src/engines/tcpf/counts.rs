@@ -29,7 +29,6 @@ pub struct TcpfCounts {
     /// Anchor queries that gave candidates, and particles re-seeded
     /// around them.
     pub anchor_queries: u64,
-    pub anchor_reseeded: u64,
     /// Re-seedings not done: the phone far from the survey
     /// (`anchors.far_db`).
     pub reseed_far: u64,
@@ -37,13 +36,6 @@ pub struct TcpfCounts {
     /// (`anchors.far_db`: the window's closest reference scan farther than
     /// the level in force).
     pub far_updates: u64,
-    /// Anchor queries whose candidates were dropped as too far from the
-    /// phone's window (`anchors.drop_far_db`).
-    pub anchors_dropped_far: u64,
-    /// Fusion runs that weighed the particles by the magnetic map.
-    pub magnetic_updates: u64,
-    /// Windows that fed the online step-length scale (`online_step`).
-    pub step_windows: u64,
     /// Radio updates made with the radio's trust below 1 and below 0.5
     /// (`integrity`).
     pub trust_reduced: u64,
@@ -56,7 +48,7 @@ pub struct TcpfCounts {
 impl TcpfCounts {
     /// Every count with its field's name (the destructuring lists every
     /// field, so a new count does not compile until it is named here).
-    pub fn named(&self) -> [(&'static str, u64); 20] {
+    pub fn named(&self) -> [(&'static str, u64); 16] {
         let TcpfCounts {
             global_starts,
             radio_updates,
@@ -69,12 +61,8 @@ impl TcpfCounts {
             floor_changes,
             floor_changes_off_map,
             anchor_queries,
-            anchor_reseeded,
             reseed_far,
             far_updates,
-            anchors_dropped_far,
-            magnetic_updates,
-            step_windows,
             trust_reduced,
             trust_low,
             reseed_untrusted,
@@ -91,12 +79,8 @@ impl TcpfCounts {
             ("floor_changes", floor_changes),
             ("floor_changes_off_map", floor_changes_off_map),
             ("anchor_queries", anchor_queries),
-            ("anchor_reseeded", anchor_reseeded),
             ("reseed_far", reseed_far),
             ("far_updates", far_updates),
-            ("anchors_dropped_far", anchors_dropped_far),
-            ("magnetic_updates", magnetic_updates),
-            ("step_windows", step_windows),
             ("trust_reduced", trust_reduced),
             ("trust_low", trust_low),
             ("reseed_untrusted", reseed_untrusted),

@@ -64,7 +64,7 @@ impl TcpfEngine {
         // a told floor holds against the anchors (whose votes, on a route
         // the survey never walked, can name a floor above or below) until
         // the walls say the told position was wrong
-        let force = if self.told_reach.held() && !ac.floor_force_after_told {
+        let force = if self.told_reach.held() {
             0
         } else {
             ac.floor_force_votes
@@ -138,7 +138,7 @@ impl TcpfEngine {
                 self.publisher.published = Some(p);
             }
             None => {
-                self.global_start(t_ns, meas, &[], &[], Some(f));
+                self.global_start(t_ns, meas, &[], Some(f));
             }
         }
     }

@@ -4,84 +4,45 @@
 use super::TcpfEngine;
 use super::anchors::Anchor;
 use crate::events::{BleObservation, WifiScan};
-use crate::radio::{Measurement, RadioModel, ScanWindow, TxKind};
+use crate::radio::{Measurement, ScanWindow, TxKind};
 use crate::wifi::FreshResults;
 
 /// The radio readings since the last radio task.
 pub(super) struct RadioInput {
     window: ScanWindow,
     fresh_wifi: FreshResults,
-    /// Measurement set of the last radio task (heard, and missed with
-    /// their radio's sensitivity), not yet used by fusion.
+    /// Measurement set of the last radio task, not yet used by fusion.
     pub(super) pending: Option<RadioSet>,
-    /// Last time each model transmitter was heard (cached WiFi results
-    /// included), ns; i64::MIN never.
-    last_heard: Vec<i64>,
-    /// Whether BLE readings / a WiFi scan arrived since the last radio task.
-    ble_active: bool,
-    wifi_active: bool,
 }
 
 impl RadioInput {
-    /// Nothing heard yet of `model`'s transmitters.
-    pub(super) fn new(model: &dyn RadioModel) -> Self {
+    /// Nothing heard yet.
+    pub(super) fn new() -> Self {
         RadioInput {
             window: ScanWindow::default(),
             fresh_wifi: FreshResults::default(),
             pending: None,
-            last_heard: vec![i64::MIN; model.transmitters().len()],
-            ble_active: false,
-            wifi_active: false,
         }
     }
 }
 
-/// One radio task's output: time, heard transmitters, missed ones with
-/// their radio's sensitivity (dBm), and the anchors of the scan window.
+/// One radio task's output: the heard transmitters and the anchors of
+/// the scan window.
 pub(super) struct RadioSet {
     pub(super) meas: Vec<Measurement>,
-    pub(super) missing: Vec<(usize, f64)>,
     pub(super) anchors: Vec<Anchor>,
 }
 
 impl TcpfEngine {
     /// The radio task: the readings since the last run become the
-    /// pending measurement set, with the missed transmitters and the
-    /// anchors of the scan window.
+    /// pending measurement set, with the anchors of the scan window.
     pub(super) fn radio_task(&mut self, t_ns: i64) {
-        let (ble, wifi) = (self.input.ble_active, self.input.wifi_active);
-        self.input.ble_active = false;
-        self.input.wifi_active = false;
         if self.input.window.is_empty() {
             return;
         }
         let meas = self.input.window.take(self.cfg.likelihood.max_transmitters);
-        let lc = &self.cfg.likelihood;
-        let ble_quiet = (self.cfg.ble_miss_after_s * 1e9) as i64;
-        let wifi_quiet = (self.cfg.wifi_max_age_s * 1e9) as i64;
-        let missing = if lc.miss_weight > 0.0 {
-            self.model
-                .transmitters()
-                .iter()
-                .enumerate()
-                .filter_map(|(i, t)| {
-                    let (active, quiet, sens) = match t.kind {
-                        TxKind::Ble => (ble, ble_quiet, lc.ble_sensitivity_dbm),
-                        TxKind::Wifi => (wifi, wifi_quiet, lc.wifi_sensitivity_dbm),
-                    };
-                    let last = self.input.last_heard.get(i).copied().unwrap_or(i64::MIN);
-                    (active && t_ns.saturating_sub(last) > quiet).then_some((i, sens))
-                })
-                .collect()
-        } else {
-            Vec::new()
-        };
         let anchors = self.query_anchors(t_ns);
-        self.input.pending = Some(RadioSet {
-            meas,
-            missing,
-            anchors,
-        });
+        self.input.pending = Some(RadioSet { meas, anchors });
     }
 
     /// The offset of the phone model (`EngineConfig::device`) on radio
@@ -110,10 +71,6 @@ impl TcpfEngine {
         }
         match self.model.lookup(TxKind::Ble, &obs.beacon_id) {
             Some(tx) => {
-                self.input.ble_active = true;
-                if let Some(l) = self.input.last_heard.get_mut(tx) {
-                    *l = (*l).max(obs.t_ns);
-                }
                 if obs.rssi_dbm >= self.cfg.min_rssi_dbm {
                     self.input.window.push(tx, corrected);
                 }
@@ -123,18 +80,9 @@ impl TcpfEngine {
     }
 
     /// One WiFi scan: its fresh results, corrected by the phone model's
-    /// offset, into the scan window and the anchors' trail; every result
-    /// marks its AP heard.
+    /// offset, into the scan window and the anchors' trail.
     pub(super) fn hear_wifi(&mut self, scan: &WifiScan) {
         let max_age = (self.cfg.wifi_max_age_s * 1e9) as i64;
-        self.input.wifi_active = true;
-        for r in &scan.results {
-            if let Some(tx) = self.model.lookup(TxKind::Wifi, &r.bssid)
-                && let Some(l) = self.input.last_heard.get_mut(tx)
-            {
-                *l = (*l).max(r.seen_t_ns.min(scan.t_ns));
-            }
-        }
         for r in self.input.fresh_wifi.of(scan, max_age) {
             if !(r.rssi_dbm.is_finite() && r.rssi_dbm < 0.0) {
                 self.stats.rejected_inputs += 1;

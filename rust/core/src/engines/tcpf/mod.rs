@@ -15,8 +15,8 @@
 //!   scale); a move through a wall kills the particle (doors pass); the
 //!   pending measurement set weighs them; the phone's RSSI offset is updated
 //!   from the residuals ([`crate::radio::PhoneOffset`]; with per-particle
-//!   offsets (the default without a radio map, `offset.per_particle` /
-//!   `per_particle_without_map`) each particle carries its own, drawn at the start
+//!   offsets (without a radio map: with the path-loss model)
+//!   each particle carries its own, drawn at the start
 //!   and on re-seeding from the offset profiled at its cell); ESS resampling;
 //!   augmented-MCL re-seeding from the likelihood surface when the cloud has
 //!   lost the radio; the published point never jumps through a wall (it
@@ -53,7 +53,6 @@ mod counts;
 mod floor;
 mod input;
 pub mod integrity;
-mod magnetic;
 mod motion;
 mod offsets;
 mod particle_count;
@@ -61,7 +60,6 @@ mod publish;
 mod radio_update;
 mod recovery;
 mod start;
-pub mod step_scale;
 mod survey_fit;
 mod survey_reach;
 mod told_reach;
@@ -71,7 +69,6 @@ use std::sync::Arc;
 pub use config::{AnchorConfig, TcpfConfig};
 pub use counts::TcpfCounts;
 pub use integrity::{IntegrityConfig, RadioIntegrity};
-pub use step_scale::{OnlineStep, OnlineStepConfig};
 
 use crate::Result;
 use crate::Vec2;
@@ -91,7 +88,6 @@ use anchors::AnchorState;
 use cells::Cells;
 use floor::FloorVotes;
 use input::{RadioInput, RadioSet};
-use magnetic::MagneticState;
 use offsets::OffsetState;
 use publish::Publisher;
 use radio_update::Scratch;
@@ -125,20 +121,12 @@ pub struct TcpfEngine {
     start: StartState,
     /// The phone's RSSI offset (`offsets.rs`).
     offset: OffsetState,
-    /// The user's step length learned online (`online_step`).
-    online_step: OnlineStep,
-    /// The counters that say the cloud moved other than by its steps and
-    /// the radio, at the last fusion run (the online step scale skips
-    /// stretches across such a move).
-    jump_key: u64,
     /// The radio's trust from its pulls against the walk (`integrity`).
     integrity: RadioIntegrity,
     /// When the cloud has lost the radio (`recovery.rs`).
     recovery: RecoveryState,
     /// The published point and pose (`publish.rs`).
     publisher: Publisher,
-    /// The magnetometer's |B| and the phone's offset (`magnetic.rs`).
-    magnetic: MagneticState,
     /// Reused buffers of the steps and the radio update (`radio_update.rs`).
     scratch: Scratch,
     /// The distance to the survey's walks, built at its first use (once
@@ -202,18 +190,15 @@ impl TcpfEngine {
             pf: ParticleFilter::new(&cfg.filter(), config.seed),
             floors: FloorTracker::for_site(&config.ekf.floor, &site, start_floor),
             floor: start_floor,
-            input: RadioInput::new(model.as_ref()),
+            input: RadioInput::new(),
             anchors: AnchorState::default(),
             votes: FloorVotes::default(),
             cells: Cells::of_site(&site, cfg.cell_m),
             start: StartState::new(model.as_ref()),
             offset: OffsetState::new(&cfg.offset),
-            online_step: OnlineStep::new(&cfg.online_step),
-            jump_key: 0,
             integrity: RadioIntegrity::for_model(!model.learned_per_floor()),
             recovery: RecoveryState::of_site(&site),
             publisher: Publisher::default(),
-            magnetic: MagneticState::default(),
             scratch: Scratch::default(),
             reach: None,
             told_reach: ToldReach::default(),
@@ -240,11 +225,6 @@ impl TcpfEngine {
         self.model.as_ref()
     }
 
-    /// The phone's |B| offset against the magnetic map, uT.
-    pub fn magnetic_offset_ut(&self) -> f64 {
-        self.magnetic.offset_ut
-    }
-
     /// The phone RSSI offset estimate and its sd, dB.
     pub fn rssi_offset_db(&self) -> (f64, f64) {
         (self.offset.phone.mean_db(), self.offset.phone.sd_db())
@@ -255,12 +235,6 @@ impl TcpfEngine {
     /// allows.
     pub fn radio_trust(&self) -> f64 {
         self.integrity.trust()
-    }
-
-    /// The online step-length scale every PDR step is multiplied by
-    /// (1 with `online_step` off).
-    pub fn step_scale(&self) -> f64 {
-        self.online_step.scale()
     }
 
     /// Particle positions and weights (plots, tests).
@@ -275,11 +249,7 @@ impl TcpfEngine {
         let pending = self.input.pending.take();
         if !self.pf.is_initialized() {
             self.stats.no_fix += 1;
-            if let Some(RadioSet {
-                meas,
-                missing,
-                anchors,
-            }) = pending
+            if let Some(RadioSet { meas, anchors }) = pending
                 && meas.len() >= self.cfg.start_min_transmitters
             {
                 // the strongest beacons' floor (BLE beacons are few per
@@ -303,7 +273,6 @@ impl TcpfEngine {
                 let first = *self.start.first_radio_t_ns.get_or_insert(t_ns);
                 let anchor_wait_ns = (self.cfg.anchors.start_wait_s * 1e9) as i64;
                 if anchors.is_empty()
-                    && !self.anchors.dropped_far
                     && self.cfg.anchors.k > 0
                     && self.model.reference_scans().is_some()
                     && t_ns - first < anchor_wait_ns
@@ -322,40 +291,24 @@ impl TcpfEngine {
                     // carry through floors): wait a little for a beacon
                     return;
                 }
-                if self.global_start(t_ns, &meas, &missing, &anchors, floor) {
+                if self.global_start(t_ns, &meas, &anchors, floor) {
                     self.publish(t_ns);
                 }
             }
             return;
         }
-        let mut stepped = false;
-        let scale = self.online_step.scale();
         for s in &steps {
             if s.length_m.is_finite() && s.yaw_rad.is_finite() && s.length_m >= 0.0 {
                 self.stats.steps += 1;
-                let kill = self.step(s.length_m * scale, s.yaw_rad);
-                self.online_step.on_step(s.length_m, s.yaw_rad, kill);
-                stepped = true;
+                self.step(s.length_m, s.yaw_rad);
             }
         }
-        let mean_ut = self.magnetic.take_mean();
-        // a walker standing still reads the same place again and again:
-        // the field weighs only after steps (samples are summed only with
-        // `magnetic.weight` > 0)
-        if stepped && let Some(b_ut) = mean_ut {
-            self.magnetic_update(b_ut);
-        }
-        if let Some(RadioSet {
-            meas,
-            missing,
-            anchors,
-        }) = pending
+        if let Some(RadioSet { meas, anchors }) = pending
             && !meas.is_empty()
         {
             self.publisher.last_radio_t_ns = Some(t_ns);
-            self.radio_update(t_ns, &meas, &missing, &anchors);
+            self.radio_update(t_ns, &meas, &anchors);
         }
-        self.learn_step_scale();
         self.publish(t_ns);
     }
 }
@@ -370,12 +323,6 @@ impl Engine for TcpfEngine {
             && p.is_finite()
         {
             self.floors.on_pressure(event.t_ns, p);
-        }
-        if self.cfg.magnetic.weight > 0.0
-            && let SensorData::Magnetometer(b) = event.data
-        {
-            self.magnetic
-                .add(crate::radio::magnetic_map::magnitude_ut(b));
         }
         self.pdr.on_sensor(event);
     }
@@ -421,7 +368,6 @@ impl Engine for TcpfEngine {
     fn stats(&self) -> EngineStats {
         let mut s = self.stats.clone();
         s.rssi_offset_db = Some(self.offset.phone.mean_db());
-        s.step_scale = Some(self.online_step.scale());
         s.radio_trust = Some(self.integrity.trust());
         s
     }

@@ -4,7 +4,6 @@
 use std::sync::Arc;
 
 use super::TcpfEngine;
-use crate::Vec2;
 
 /// Sampling step of the particles' wall checks, metres (the published
 /// point is checked as `fpbp eval` checks it: [`crate::map::FloorMap::track_crosses_wall`]).
@@ -24,10 +23,6 @@ impl TcpfEngine {
         self.pf.predict(length_m, yaw_rad);
         self.integrity.on_step(length_m);
         self.told_reach.on_step(length_m, yaw_rad);
-        if self.cfg.anchors.query_period_s > 0.0 {
-            // only reused anchors move by it
-            self.anchors.walked += Vec2::new(yaw_rad.cos(), yaw_rad.sin()) * length_m;
-        }
         let mut frac = 0.0;
         if let Some(m) = map {
             m.crosses_wall_each(
@@ -51,23 +46,5 @@ impl TcpfEngine {
         }
         self.resample_if_degenerate();
         frac
-    }
-
-    /// Feeds the online step scale the cloud after this fusion run: its
-    /// mean and spread, and whether it was moved other than by the steps
-    /// and the radio (started, re-seeded, changed floor, a step undone).
-    pub(super) fn learn_step_scale(&mut self) {
-        if !self.cfg.online_step.enabled {
-            return;
-        }
-        let c = &self.counts;
-        let key =
-            c.global_starts + c.reseeded + c.anchor_reseeded + c.floor_changes + c.steps_blocked;
-        let jumped = key != self.jump_key;
-        self.jump_key = key;
-        let before = self.online_step.windows;
-        self.online_step
-            .on_fusion(self.pf.mean(), self.pf.spread_m(), jumped);
-        self.counts.step_windows += self.online_step.windows - before;
     }
 }

@@ -28,8 +28,8 @@ impl OffsetState {
 
 impl TcpfEngine {
     /// The prior of the offset profiled at a start or re-seeding: the
-    /// current belief, or with per-particle offsets and
-    /// `offset.reseed_from_prior` on a re-seeding, the configured prior.
+    /// current belief, or on a re-seeding under the configured prior
+    /// (`reseed_under_prior`), that prior.
     pub(super) fn profile_prior(&self, reseed: bool) -> (f64, f64) {
         let oc = self.offset.phone.config();
         if reseed && self.reseed_under_prior() {
@@ -40,26 +40,23 @@ impl TcpfEngine {
     }
 
     /// Whether a re-seeding profiles the offset under the configured
-    /// prior: with per-particle offsets when `offset.reseed_from_prior`,
-    /// with one offset while its belief lies beyond
+    /// prior: with one offset (not per particle) while its belief lies beyond
     /// `offset.reseed_prior_beyond_sd` prior sds from the prior's mean.
     fn reseed_under_prior(&self) -> bool {
         let oc = self.offset.phone.config();
-        if self.per_particle_offset() {
-            oc.reseed_from_prior
-        } else {
-            let k = oc.reseed_prior_beyond_sd;
-            k > 0.0 && (self.offset.phone.mean_db() - oc.prior_db).abs() > k * oc.prior_sd_db
-        }
+        let k = oc.reseed_prior_beyond_sd;
+        !self.per_particle_offset()
+            && k > 0.0
+            && (self.offset.phone.mean_db() - oc.prior_db).abs() > k * oc.prior_sd_db
     }
 
-    /// Whether each particle carries its own offset: when asked for, or
-    /// (`per_particle_without_map`) when the model is the path-loss model
-    /// rather than a radio map learned from a survey.
+    /// Whether each particle carries its own offset: with the path-loss
+    /// model (where position and offset trade off along every beacon's
+    /// range, so they are resolved jointly), not with a radio map learned
+    /// from a survey (one offset for the cloud; docs/lab "per-particle
+    /// offsets" gives the figures of each choice).
     pub(super) fn per_particle_offset(&self) -> bool {
-        let oc = self.offset.phone.config();
-        let path_loss = !self.model.learned_per_floor();
-        oc.enabled && (oc.per_particle || (oc.per_particle_without_map && path_loss))
+        self.offset.phone.config().enabled && !self.model.learned_per_floor()
     }
 
     /// Per-particle offsets: every particle's drawn from N(mean, (k sd)^2)

@@ -2,7 +2,6 @@
 //! through the doors rather than jumping through a wall, and its accuracy
 //! radius (the cloud, the anchors, the survey distance, the integrity).
 
-use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use super::TcpfEngine;
@@ -59,13 +58,7 @@ impl TcpfEngine {
     /// mean, or the heaviest particles, whichever the last published point
     /// reaches without crossing a wall; held up to `max_hold_runs`.
     pub(super) fn estimate(&mut self) -> Option<Vec2> {
-        let mean = if self.cfg.mode_bin_m > 0.0 {
-            self.mode_mean(self.cfg.mode_bin_m)?
-        } else if self.cfg.median_iters > 0 {
-            self.pf.geometric_median(self.cfg.median_iters)?
-        } else {
-            self.pf.mean()?
-        };
+        let mean = self.pf.mean()?;
         let site = Arc::clone(&self.site);
         let Some(map) = site.floor(self.floor) else {
             return Some(mean);
@@ -131,42 +124,6 @@ impl TcpfEngine {
         }
     }
 
-    /// The weighted mean of the particles within one bin of the heaviest
-    /// `bin_m` square: the cloud's main mode (the mean of a cloud split
-    /// over two places lies between them).
-    pub(super) fn mode_mean(&self, bin_m: f64) -> Option<Vec2> {
-        let (ps, ws) = (self.pf.particles(), self.pf.weights());
-        if ps.is_empty() {
-            return None;
-        }
-        let key = |p: &Vec2| ((p.x / bin_m).floor() as i64, (p.y / bin_m).floor() as i64);
-        let mut bins: BTreeMap<(i64, i64), f64> = BTreeMap::new();
-        for (p, w) in ps.iter().zip(ws) {
-            *bins.entry(key(p)).or_insert(0.0) += w;
-        }
-        // mass of each bin with its 8 neighbours
-        let best = bins
-            .keys()
-            .map(|&(i, j)| {
-                let m: f64 = (-1..=1)
-                    .flat_map(|di| (-1..=1).map(move |dj| (i + di, j + dj)))
-                    .filter_map(|k| bins.get(&k))
-                    .sum();
-                (m, (i, j))
-            })
-            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)))?
-            .1;
-        let (mut s, mut wsum) = (Vec2::zeros(), 0.0);
-        for (p, w) in ps.iter().zip(ws) {
-            let (i, j) = key(p);
-            if (i - best.0).abs() <= 1 && (j - best.1).abs() <= 1 {
-                s += p * *w;
-                wsum += w;
-            }
-        }
-        (wsum > 0.0).then(|| s / wsum)
-    }
-
     /// The `accuracy_quantile` of the weighted distances from `at`
     /// ([`weighted_quantile`]: the sorted cloud's value without sorting it).
     pub(super) fn accuracy_m(&self, at: Vec2) -> f64 {
@@ -188,21 +145,6 @@ impl TcpfEngine {
         match self.anchors.mean {
             Some((f, m)) if share > 0.0 && f == self.floor => r.hypot(share * (m - at).norm()),
             _ => r,
-        }
-    }
-
-    /// The published radius: `cloud_m` widened by `anchors.accuracy_per_db_m`
-    /// per dB of RSSI distance from the closest reference scan beyond
-    /// `anchors.accuracy_free_db` (in quadrature): a window far, in RSSI,
-    /// from every survey scan was heard where the survey never went, and
-    /// the radio there is extrapolated.
-    pub(super) fn accuracy_with_survey(&self, cloud_m: f64) -> f64 {
-        let ac = &self.cfg.anchors;
-        match self.anchors.survey_dist_db {
-            Some(d) if ac.accuracy_per_db_m > 0.0 && d > ac.accuracy_free_db => {
-                cloud_m.hypot(ac.accuracy_per_db_m * (d - ac.accuracy_free_db))
-            }
-            _ => cloud_m,
         }
     }
 
@@ -251,10 +193,7 @@ impl TcpfEngine {
             y_m: pos.y,
             floor: self.floor,
             heading_rad: self.publisher.heading_rad,
-            accuracy_m: self.accuracy_with_start(
-                t_ns,
-                self.accuracy_with_integrity(self.accuracy_with_survey(cloud_m)),
-            ),
+            accuracy_m: self.accuracy_with_start(t_ns, self.accuracy_with_integrity(cloud_m)),
             floor_prob,
             source,
         });

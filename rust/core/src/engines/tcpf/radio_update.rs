@@ -10,7 +10,7 @@ use super::recovery::RadioFit;
 use crate::Vec2;
 use crate::fast_math::{exp_many, max_many};
 use crate::radio::Measurement;
-use crate::radio::likelihood::{CloudLikelihood, missing_log_likelihood};
+use crate::radio::likelihood::CloudLikelihood;
 
 /// Reused buffers of the steps' wall checks and the radio update.
 #[derive(Default)]
@@ -30,31 +30,18 @@ pub(super) struct Scratch {
 impl TcpfEngine {
     /// Weighs the particles with one measurement set, updates the phone
     /// offset, the floor and, when the cloud has lost the radio, re-seeds.
-    pub(super) fn radio_update(
-        &mut self,
-        t_ns: i64,
-        meas: &[Measurement],
-        missing: &[(usize, f64)],
-        anchors: &[Anchor],
-    ) {
+    pub(super) fn radio_update(&mut self, t_ns: i64, meas: &[Measurement], anchors: &[Anchor]) {
         let lc = self.cfg.likelihood.clone();
         let model = Arc::clone(&self.model);
         let floor = self.floor;
         let o = self.offset.phone.mean_db();
-        let c = self.cfg.converged_radio_scale;
-        let (lo, hi) = (
-            self.cfg.converged_spread_lo_m,
-            self.cfg.converged_spread_hi_m,
-        );
         let spread_before = self.pf.spread_m();
         // the cloud's mean before the update: only the integrity check reads it
         let mean_before = self.integrity.is_active().then(|| self.pf.mean()).flatten();
-        let g = ((spread_before - lo) / (hi - lo)).clamp(0.0, 1.0);
         // the radio's trust tempers its weights (1 unless `integrity`)
         let trust = self.integrity.trust();
-        let alpha = lc.alpha(meas.len()) * (c + (1.0 - c) * g) * trust;
+        let alpha = lc.alpha(meas.len()) * trust;
         let m = meas.len().max(1) as f64;
-        let missed = self.near_missing(missing, o);
         let alpha0 = lc.alpha(meas.len());
         self.scratch.log_l.clear();
         let mut mean_l = 0.0;
@@ -95,11 +82,6 @@ impl TcpfEngine {
         for e in ex.iter() {
             mean_l += e;
         }
-        if !missed.is_empty() {
-            for (u, p) in self.scratch.log_l.iter_mut().zip(ps) {
-                *u += missing_log_likelihood(model.as_ref(), &lc, &missed, floor, *p, o);
-            }
-        }
         // log of the cloud's mean likelihood tempered by alpha0 (comparable
         // with the surface), by log-sum-exp
         let lmax = max_many(&self.scratch.log_l, |u| alpha0 * u);
@@ -129,7 +111,7 @@ impl TcpfEngine {
         }
         let mut log_l = std::mem::take(&mut self.scratch.log_l);
         log_l.iter_mut().for_each(|u| *u *= alpha);
-        let support = self.weigh_by_anchors(anchors, floor, trust, &mut log_l);
+        self.weigh_by_anchors(anchors, floor, trust, &mut log_l);
         self.weigh_by_survey_reach(floor, trust, &mut log_l);
         self.weigh_by_told_reach(floor, &mut log_l);
         self.pf.weight_log(&log_l);
@@ -154,10 +136,7 @@ impl TcpfEngine {
             cloud_ll,
             spread_before,
         };
-        self.recover(floor, meas, missing, fit, trusted);
-        if trusted {
-            self.anchor_reseed(anchors, floor, support);
-        }
+        self.recover(floor, meas, fit, trusted);
         if let (Some(a), Some(b)) = (mean_before, self.pf.mean()) {
             self.integrity
                 .on_radio(&self.cfg.integrity, t_ns, b - a, spread_before);
@@ -174,37 +153,5 @@ impl TcpfEngine {
             self.integrity
                 .restart(&self.cfg.integrity, self.recovery.told_start);
         }
-    }
-
-    /// The missed transmitters that could matter for the cloud: those
-    /// whose expected RSSI at the nearest point of the cloud's bounding box
-    /// reaches within 6 sensitivity scales of their radio's sensitivity.
-    pub(super) fn near_missing(
-        &self,
-        missing: &[(usize, f64)],
-        offset_db: f64,
-    ) -> Vec<(usize, f64)> {
-        let ps = self.pf.particles();
-        if ps.is_empty() || missing.is_empty() {
-            return Vec::new();
-        }
-        let (mut lo, mut hi) = (ps[0], ps[0]);
-        for p in ps {
-            lo = lo.inf(p);
-            hi = hi.sup(p);
-        }
-        let tx = self.model.transmitters();
-        let scale = self.cfg.likelihood.sensitivity_scale_db;
-        missing
-            .iter()
-            .copied()
-            .filter(|&(i, sens)| {
-                let Some(t) = tx.get(i) else { return false };
-                let q = Vec2::new(t.pos.x.clamp(lo.x, hi.x), t.pos.y.clamp(lo.y, hi.y));
-                self.model
-                    .expected(i, self.floor, q)
-                    .is_some_and(|(mu, _)| mu + offset_db - sens > -6.0 * scale)
-            })
-            .collect()
     }
 }

@@ -15,10 +15,8 @@ use crate::site::Site;
 pub(super) struct RecoveryState {
     /// The cloud's likelihood, slow against fast.
     pub(super) monitor: LikelihoodMonitor,
-    /// Radio updates since the last radio-alone recovery check.
-    since_check: u32,
     /// The cloud was last placed at a told position (`InitialPosition`,
-    /// `set_position`), not by the radio (`recovery_told_open_floor`).
+    /// `set_position`), not by the radio.
     pub(super) told_start: bool,
     /// Moving average (rate 0.1 per step) of the share of particles a step
     /// kills at walls: a cloud whose steps keep hitting walls is lost.
@@ -41,7 +39,6 @@ impl RecoveryState {
             .collect();
         RecoveryState {
             monitor: LikelihoodMonitor::default(),
-            since_check: 0,
             told_start: false,
             kill_ema: 0.0,
             walled,
@@ -67,7 +64,7 @@ impl TcpfEngine {
         self.recovery.kill_ema >= self.cfg.recovery_min_wall_kill
     }
 
-    /// After a radio update on `floor` with `meas` / `missing`: re-seeds
+    /// After a radio update on `floor` with `meas`: re-seeds
     /// part of the cloud from the likelihood surface when the monitor saw
     /// a dip and the walls agree, or when the surface beats the cloud by
     /// far; not far from the survey, and only with a `trusted` radio.
@@ -75,7 +72,6 @@ impl TcpfEngine {
         &mut self,
         floor: i32,
         meas: &[Measurement],
-        missing: &[(usize, f64)],
         fit: RadioFit,
         trusted: bool,
     ) {
@@ -90,34 +86,23 @@ impl TcpfEngine {
             self.cfg.recovery_alpha_fast,
             self.cfg.recovery_max_fraction,
         );
-        // re-seed only when the surface's best cell beats the cloud by
-        // `recovery_margin` (tempered log-likelihood) and the walls say the
-        // cloud is lost (a biased radio model has better-fitting spots away
-        // from the walker: re-seeding there on every dip of the likelihood
-        // loses a good track), or when the surface beats the cloud by far
-        // (checked every `recovery_check_every` updates even without a dip:
-        // a kidnapped cloud's likelihood is low from the start, not falling)
-        self.recovery.since_check += 1;
-        let every = self.cfg.recovery_check_every;
-        let check = every > 0 && self.recovery.since_check >= every;
-        if check {
-            self.recovery.since_check = 0;
-        }
+        // after a dip of the likelihood, re-seed only when the surface's
+        // best cell beats the cloud (tempered log-likelihood) and the walls
+        // say the cloud is lost (a biased radio model has better-fitting
+        // spots away from the walker: re-seeding there on every dip loses a
+        // good track), or when the surface beats the cloud by far
         // far from every survey walk (with reference scans to tell) the
         // surface is the radio map's extrapolation: no re-seeding from it
         let far = self.far_from_survey();
-        if far && (reseed > 0.0 || check) {
+        if far && reseed > 0.0 {
             self.counts.reseed_far += 1;
         }
         // on a floor without inner walls nothing but the radio can say the
-        // cloud is lost, unless the cloud came from a told position
-        // (`recovery_told_open_floor`)
+        // cloud is lost
         let open = !self.recovery.walled.get(&floor).copied().unwrap_or(false);
-        let radio_decides =
-            open && !(self.recovery.told_start && self.cfg.recovery_told_open_floor);
-        let walls_agree = self.walls_say_lost() || radio_decides;
+        let walls_agree = self.walls_say_lost() || open;
         // the gap that re-seeds: past `recovery_radio_alone_margin`, or
-        // with a dip and the walls' consent past `recovery_margin`; when
+        // with a dip and the walls' consent past 0; when
         // the bound says the gap cannot pass it, the surface (the largest
         // share of an update that computes it) would change nothing
         let alone = if self.recovery.told_start {
@@ -126,25 +111,24 @@ impl TcpfEngine {
             self.cfg.recovery_global_radio_alone_margin
         };
         let needed = if reseed > 0.0 && walls_agree {
-            alone.min(self.cfg.recovery_margin)
+            alone.min(0.0)
         } else {
             alone
         };
-        if (reseed > 0.0 || check)
+        if reseed > 0.0
             && !far
             && trusted
             && self
                 .surface_gap_bound(floor, meas, cloud_ll)
                 .is_none_or(|b| b > needed)
-            && let Some(mut surf) =
-                self.surface(floor, meas, missing, &[], self.profile_prior(true))
+            && let Some(mut surf) = self.surface(floor, meas, &[], self.profile_prior(true))
             && let best_ll = surf.lse - surf.w.iter().sum::<f64>().ln()
             && let Some(kept_ln) = self.keep_within_told_reach(floor, &mut surf)
             && let gap = best_ll + kept_ln - cloud_ll
             && let Some(fraction) = if gap > alone {
                 Some(self.cfg.recovery_max_fraction)
             } else {
-                (reseed > 0.0 && gap > self.cfg.recovery_margin && walls_agree).then_some(reseed)
+                (reseed > 0.0 && gap > 0.0 && walls_agree).then_some(reseed)
             }
         {
             let reseed = fraction;

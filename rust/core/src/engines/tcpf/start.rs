@@ -8,7 +8,7 @@ use super::anchors::{Anchor, anchor_mix};
 use super::cells::WithCells;
 use crate::Vec2;
 use crate::engine::InitialPosition;
-use crate::radio::likelihood::{missing_log_likelihood, profiled_many};
+use crate::radio::likelihood::profiled_many;
 use crate::radio::{Measurement, RadioModel, TxKind};
 
 /// What the global start waits for.
@@ -73,8 +73,6 @@ impl TcpfEngine {
         self.told_reach.restart(at.floor, p);
         self.publisher.global_start = None;
         self.integrity.restart(&self.cfg.integrity, true);
-        self.online_step.drop_window();
-        self.offset.phone.tighten_for_told_start();
         self.draw_offsets_from_belief();
         self.recovery.monitor.reset();
         self.publisher.published = Some(p);
@@ -88,7 +86,6 @@ impl TcpfEngine {
         &mut self,
         floor: i32,
         meas: &[Measurement],
-        missing: &[(usize, f64)],
         anchors: &[Anchor],
         prior: (f64, f64),
     ) -> Option<Surface> {
@@ -111,15 +108,14 @@ impl TcpfEngine {
         profiled_many(
             &cached, lc, meas, floor, cells, o0, sd0, &mut offs, &mut sds, &mut ll,
         );
-        for ((l, c), o) in ll.iter_mut().zip(cells).zip(&offs) {
-            let miss = missing_log_likelihood(model, lc, missing, floor, *c, *o);
-            *l = alpha * (*l + miss);
+        for l in ll.iter_mut() {
+            *l *= alpha;
         }
         let ac = &self.cfg.anchors;
-        if !anchors.is_empty() && ac.start_weight > 0.0 {
+        if !anchors.is_empty() {
             for (l, c) in ll.iter_mut().zip(cells) {
                 let a = anchor_mix(anchors, floor, *c, ac.sigma_m);
-                *l += ac.start_weight * ((ac.floor + a) / (ac.floor + 1.0)).ln();
+                *l += ((ac.floor + a) / (ac.floor + 1.0)).ln();
             }
         }
         let max = ll.iter().copied().fold(f64::NEG_INFINITY, f64::max);
@@ -173,7 +169,6 @@ impl TcpfEngine {
         &mut self,
         t_ns: i64,
         meas: &[Measurement],
-        missing: &[(usize, f64)],
         anchors: &[Anchor],
         floor: Option<i32>,
     ) -> bool {
@@ -184,10 +179,7 @@ impl TcpfEngine {
         let prior = self.profile_prior(false);
         let best = floors
             .into_iter()
-            .filter_map(|f| {
-                self.surface(f, meas, missing, anchors, prior)
-                    .map(|s| (f, s))
-            })
+            .filter_map(|f| self.surface(f, meas, anchors, prior).map(|s| (f, s)))
             .max_by(|a, b| a.1.lse.total_cmp(&b.1.lse).then(b.0.cmp(&a.0)));
         let Some((f, surf)) = best else {
             return false;
@@ -209,7 +201,6 @@ impl TcpfEngine {
         self.draw_offsets_from_cells(&surf);
         self.summarise_offsets();
         self.recovery.monitor.reset();
-        self.anchors.low_support = 0;
         self.publisher.published = None;
         self.publisher.hold_runs = 0;
         self.counts.global_starts += 1;

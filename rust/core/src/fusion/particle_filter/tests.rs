@@ -334,23 +334,3 @@ fn inject_replaces_the_fraction_with_accepted_points_near_the_centre() {
     assert_eq!(pf.inject(0.0, c, 1.0, |_| true), 0);
     assert_eq!(pf.inject(0.5, c, 1.0, |_| false), 0);
 }
-
-#[test]
-fn geometric_median_stays_with_the_heavier_place() {
-    // 7 particles at the origin, 3 at 10 m: the mean lies between
-    // them, the median with the seven
-    let mut pf = filter(10, Resampling::Systematic, 1);
-    pf.init_at(Vec2::new(0.0, 0.0), 0.0, |_| true);
-    for p in pf.cloud.positions_mut().iter_mut().skip(7) {
-        *p = Vec2::new(10.0, 0.0);
-    }
-    let mean = pf.mean().unwrap();
-    assert!((mean - Vec2::new(3.0, 0.0)).norm() < 1e-9, "{mean:?}");
-    assert_eq!(pf.geometric_median(0), Some(mean));
-    let med = pf.geometric_median(50).unwrap();
-    assert!(med.norm() < 0.1, "{med:?}");
-    // one place: the median is the place
-    pf.init_at(Vec2::new(2.0, -1.0), 0.0, |_| true);
-    let one = pf.geometric_median(50).unwrap();
-    assert!((one - Vec2::new(2.0, -1.0)).norm() < 1e-9);
-}

@@ -235,23 +235,6 @@ fn the_spread_normaliser_is_weighted() {
 }
 
 #[test]
-fn a_missed_transmitter_counts_against_being_near_it() {
-    let m = model();
-    let cfg = LikelihoodConfig {
-        miss_weight: 1.0,
-        ..Default::default()
-    };
-    assert_eq!(LikelihoodConfig::default().miss_weight, 0.0);
-    let tx0 = m.transmitters()[0].pos;
-    let miss = [(0, cfg.ble_sensitivity_dbm)];
-    let near = missing_log_likelihood(&m, &cfg, &miss, 0, tx0, 0.0);
-    let far = missing_log_likelihood(&m, &cfg, &miss, 0, tx0 + Vec2::new(500.0, 0.0), 0.0);
-    assert!(near < far - 1.0, "{near} {far}");
-    assert!((near - cfg.miss_prob_min.ln()).abs() < 0.05, "{near}");
-    assert!(far > -0.01, "{far}");
-}
-
-#[test]
 fn one_outlier_costs_a_bounded_amount() {
     let m = model();
     let cfg = LikelihoodConfig::default();

@@ -30,11 +30,9 @@ fn first_on(out: &ReplayOutput, f: i32) -> Option<f64> {
 /// barometer stays level; the walker is told floor 0. By default the told
 /// floor holds: on a route the survey never walked the anchors can name
 /// the floor above or below for many updates in a row (IPIN, docs/tcpf.md
-/// "A told floor holds against the anchors"). With `floor_force_after_told` their run of votes moves the
-/// track to floor 1 within 10 s, as it moves a start floor the radio
-/// chose; without `floor_force_votes` it does not.
+/// "A told floor holds against the anchors").
 #[test]
-fn anchors_move_a_wrong_start_floor_against_a_level_barometer() {
+fn a_told_floor_holds_and_the_own_start_takes_the_anchors_floor() {
     let (site, map, ev) = two_floors_with_scans_on_1();
     let init = Some(InitialPosition {
         x_m: 7.0,
@@ -47,20 +45,7 @@ fn anchors_move_a_wrong_start_floor_against_a_level_barometer() {
         replay(&mut e, ev.iter().cloned())
     };
     let told = run_with(&EngineConfig::default());
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.anchors.floor_force_after_told = true;
-    let on = run_with(&cfg);
-    cfg.tcpf.anchors.floor_force_votes = 0;
-    let off = run_with(&cfg);
-    let (t_told, t_on, t_off) = (first_on(&told, 1), first_on(&on, 1), first_on(&off, 1));
-    eprintln!(
-        "first pose on floor 1: told floor held {t_told:?} s, forced {t_on:?} s, not forced {t_off:?} s"
-    );
-    assert_eq!(t_told, None, "the told floor holds");
-    let t_on = t_on.expect("the anchors move the track to floor 1");
-    assert!(t_on < 10.0, "moved only at {t_on:.1} s");
-    assert!(t_off.is_none_or(|t| t > t_on + 5.0), "{t_off:?}");
-    assert_eq!(on.track.last().map(|p| p.floor), Some(1));
+    assert_eq!(first_on(&told, 1), None, "the told floor holds");
     // the start floor from the anchors: no start position, no wrong floor
     let mut e =
         TcpfEngine::with_model(site.clone(), &EngineConfig::default(), None, map.clone()).unwrap();
@@ -136,8 +121,7 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     let run_with = |shift_db: f64, far_db: f64| {
         let (site, map) = site_with_scans(1, 0, shift_db);
         let mut cfg = EngineConfig::default();
-        // a told start reads `far_db_told`
-        cfg.tcpf.anchors.far_db_told = far_db;
+        cfg.tcpf.anchors.far_db = far_db;
         let mut e = TcpfEngine::with_model(site, &cfg, init, map).unwrap();
         let out = replay(&mut e, ev.iter().cloned());
         let c = &e.counts;
@@ -159,95 +143,6 @@ fn far_from_the_survey_the_cloud_is_not_reseeded_from_the_radio() {
     // the gate off: the same survey re-seeds
     let (_, off_reseeded, _, off_updates) = run_with(30.0, 0.0);
     assert!(off_reseeded > 0 && off_updates == 0);
-}
-
-/// A told start begins with the offset prior `offset.prior_sd_db_told`
-/// (when set); a global one with `offset.prior_sd_db`.
-#[test]
-fn a_told_start_begins_with_the_tighter_offset_prior() {
-    let mut cfg = EngineConfig::default();
-    let engine = |cfg: &EngineConfig, init| {
-        let (site, map) = site_with_scans(1, 0, 0.0);
-        TcpfEngine::with_model(site, cfg, init, map).unwrap()
-    };
-    let prior = cfg.tcpf.offset.prior_sd_db;
-    // default 0: the told start's prior is the global one's
-    let told = engine(&cfg, Some(BEHIND_THE_WALL));
-    assert_eq!(told.offset.phone.sd_db(), prior);
-    cfg.tcpf.offset.prior_sd_db_told = 2.0;
-    let told = engine(&cfg, Some(BEHIND_THE_WALL));
-    assert_eq!(told.offset.phone.sd_db(), 2.0);
-    let global = engine(&cfg, None);
-    assert_eq!(global.offset.phone.sd_db(), prior);
-}
-
-/// The far level in force: `anchors.far_db_told` while the cloud comes
-/// from a told position, `anchors.far_db` after a global start.
-#[test]
-fn a_told_start_reads_its_own_far_level() {
-    let (site, map) = site_with_scans(1, 0, 0.0);
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.anchors.far_db = 12.0;
-    cfg.tcpf.anchors.far_db_told = 8.0;
-    let mut e = TcpfEngine::with_model(site, &cfg, Some(BEHIND_THE_WALL), map).unwrap();
-    e.anchors.survey_dist_db = Some(10.0);
-    e.recovery.told_start = true;
-    assert!(e.far_from_survey());
-    e.recovery.told_start = false;
-    assert!(!e.far_from_survey());
-    e.anchors.survey_dist_db = Some(13.0);
-    assert!(e.far_from_survey());
-    e.anchors.survey_dist_db = Some(7.0);
-    e.recovery.told_start = true;
-    assert!(!e.far_from_survey());
-    // 0: the told level off
-    cfg.tcpf.anchors.far_db_told = 0.0;
-    let (site, map) = site_with_scans(1, 0, 0.0);
-    let mut off = TcpfEngine::with_model(site, &cfg, Some(BEHIND_THE_WALL), map).unwrap();
-    off.anchors.survey_dist_db = Some(40.0);
-    off.recovery.told_start = true;
-    assert!(!off.far_from_survey());
-}
-
-/// The survey-distance term widens the radius only beyond
-/// `anchors.accuracy_free_db`, by `accuracy_per_db_m` per dB in
-/// quadrature, and the hold still reads the cloud's own radius.
-#[test]
-fn a_window_far_from_the_survey_widens_the_radius() {
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.anchors.accuracy_free_db = 6.0;
-    cfg.tcpf.anchors.accuracy_per_db_m = 1.0;
-    let mut e = TcpfEngine::new(site(), &cfg, None).unwrap();
-    e.anchors.survey_dist_db = None;
-    assert_eq!(e.accuracy_with_survey(3.0), 3.0);
-    e.anchors.survey_dist_db = Some(5.0);
-    assert_eq!(e.accuracy_with_survey(3.0), 3.0);
-    e.anchors.survey_dist_db = Some(10.0);
-    assert!((e.accuracy_with_survey(3.0) - 5.0).abs() < 1e-12);
-    cfg.tcpf.anchors.accuracy_per_db_m = 0.0;
-    let mut off = TcpfEngine::new(site(), &cfg, None).unwrap();
-    off.anchors.survey_dist_db = Some(40.0);
-    assert_eq!(off.accuracy_with_survey(3.0), 3.0);
-    // end to end: scans 30 dB louder than anything heard put the phone
-    // far from the survey, and its radius is wider than beside the survey
-    let ev = walk_north(30, None);
-    let late_radius = |shift_db: f64| {
-        let (site, map) = site_with_scans(1, 0, shift_db);
-        let mut cfg = EngineConfig::default();
-        cfg.tcpf.anchors.accuracy_per_db_m = 1.0;
-        let mut e = TcpfEngine::with_model(site, &cfg, None, map).unwrap();
-        let out = replay(&mut e, ev.iter().cloned());
-        let late: Vec<f64> = out
-            .track
-            .iter()
-            .filter(|p| p.t_ns > 20_000_000_000)
-            .map(|p| p.accuracy_m)
-            .collect();
-        assert!(!late.is_empty());
-        late.iter().sum::<f64>() / late.len() as f64
-    };
-    let (near, far) = (late_radius(0.0), late_radius(30.0));
-    assert!(far > near + 10.0, "near {near:.1} m, far {far:.1} m");
 }
 
 #[test]
@@ -277,32 +172,4 @@ fn the_batched_anchor_mixture_is_the_per_point_one() {
             );
         }
     }
-}
-
-/// A scan window that matches no reference scan (the survey's scans 30
-/// dB louder than anything heard: a place the survey never went) gives
-/// no anchors with `drop_far_db` 15 (off by default): none weigh the
-/// particles or place the start, and the start does not wait for them.
-/// Near the survey, and with the switch off, the anchors stay.
-#[test]
-fn candidates_far_from_the_phones_window_are_dropped() {
-    let ev = walk_north(30, None);
-    let run_with = |shift_db: f64, drop_far_db: f64| {
-        let (site, map) = site_with_scans(1, 0, shift_db);
-        let mut cfg = EngineConfig::default();
-        cfg.tcpf.anchors.drop_far_db = drop_far_db;
-        let mut e = TcpfEngine::with_model(site, &cfg, None, map).unwrap();
-        let out = replay(&mut e, ev.iter().cloned());
-        let first = out.track.first().map(|p| p.t_ns).unwrap();
-        (first, e.counts.anchor_queries, e.counts.anchors_dropped_far)
-    };
-    assert_eq!(EngineConfig::default().tcpf.anchors.drop_far_db, 0.0);
-    let (_, near_q, near_dropped) = run_with(0.0, 15.0);
-    assert!(near_q > 0 && near_dropped == 0, "{near_q} {near_dropped}");
-    let (far_first, far_q, far_dropped) = run_with(30.0, 15.0);
-    assert!(far_q == 0 && far_dropped > 0, "{far_q} {far_dropped}");
-    let (kept_first, kept_q, kept_dropped) = run_with(30.0, 0.0);
-    assert!(kept_q > 0 && kept_dropped == 0, "{kept_q} {kept_dropped}");
-    // the start waits for no anchor: as early as with the far ones kept
-    assert!(far_first <= kept_first, "{far_first} {kept_first}");
 }

@@ -14,7 +14,6 @@ use crate::events::LogEvent;
 use crate::radio::{Measurement, TxKind};
 
 mod anchors;
-mod magnetic;
 mod recovery;
 
 fn run(events: &[LogEvent], init: Option<InitialPosition>, cfg: &EngineConfig) -> ReplayOutput {
@@ -64,17 +63,10 @@ fn learns_a_phone_offset_and_reports_it() {
     let out = run(&ev, None, &EngineConfig::default());
     let o = out.stats.rssi_offset_db.expect("tcpf reports its offset");
     assert!((o + 9.0).abs() < 2.5, "offset {o:.2} dB");
-    // and its step scale, 1 with `online_step` off (the default)
-    assert_eq!(out.stats.step_scale, Some(1.0));
+    // tcpf learns no step scale
+    assert_eq!(out.stats.step_scale, None);
     let err = mean_error(&out);
     assert!(err < 4.5, "mean error {err:.2} m");
-    // each particle with its own offset
-    let mut cfg = EngineConfig::default();
-    cfg.tcpf.offset.per_particle = true;
-    let each = run(&ev, None, &cfg);
-    let o = each.stats.rssi_offset_db.unwrap();
-    assert!((o + 9.0).abs() < 2.5, "per particle: {o:.2} dB");
-    assert!(mean_error(&each) < 4.5, "{:.2} m", mean_error(&each));
     let mut cfg = EngineConfig::default();
     cfg.tcpf.offset.enabled = false;
     let fixed = run(&ev, None, &cfg);

@@ -69,23 +69,10 @@ fn the_cell_cache_gives_the_models_values() {
 }
 
 #[test]
-fn the_query_period_is_checked() {
-    let mut a = AnchorConfig::default();
-    assert!(a.validate().is_ok());
-    a.query_period_s = -1.0;
-    assert!(a.validate().is_err());
-    a.query_period_s = 601.0;
-    assert!(a.validate().is_err());
-}
-
-#[test]
-fn on_an_open_floor_a_told_start_outranks_a_weak_radio_dip() {
+fn on_an_open_floor_the_radio_alone_reseeds_a_told_start() {
     // the walk along x = 7 on a floor without walls, told to start 4 m east
     // of it: nothing but the radio can say the cloud is off, so by default
-    // its dips re-seed the cloud from the likelihood surface; with
-    // `recovery_told_open_floor` only a gap beyond the radio-alone margin
-    // would (the radio biased away from the survey's routes must not undo
-    // a tap on the map)
+    // its dips re-seed the cloud from the likelihood surface
     use crate::site::testkit::{beacon_site, open_map};
     let bs: Vec<(f64, f64)> = beacons().iter().map(|p| (p.x, p.y)).collect();
     let site = beacon_site("open", vec![open_map(20, 40)], &bs, MODEL);
@@ -96,15 +83,13 @@ fn on_an_open_floor_a_told_start_outranks_a_weak_radio_dip() {
         floor: 0,
         heading_rad: None,
     };
-    let reseeded = |told: bool, at: Option<InitialPosition>| {
-        let mut cfg = EngineConfig::default();
-        cfg.tcpf.recovery_told_open_floor = told;
+    let reseeded = |at: Option<InitialPosition>| {
+        let cfg = EngineConfig::default();
         let mut e = TcpfEngine::new(Arc::clone(&site), &cfg, at).unwrap();
         let _ = replay(&mut e, ev.iter().cloned());
         e.counts.reseeded
     };
-    assert!(reseeded(false, Some(init)) > 0);
-    assert_eq!(reseeded(true, Some(init)), 0);
+    assert!(reseeded(Some(init)) > 0);
 }
 
 /// The path-loss model with a spread that grows along x (as a radio
@@ -131,7 +116,7 @@ impl RadioModel for SpreadAlongX {
 /// stands for (with the cloud's log-likelihood 0, so the surface's own
 /// log-sum-exp less the log of its weights' sum), on the path-loss model
 /// and on one whose spread varies over the cells, for readings near and
-/// far from the model, with and without misses and prior: the surface it
+/// far from the model, with and without a prior: the surface it
 /// lets the engine skip could not have re-seeded.
 #[test]
 fn the_surface_bound_is_never_below_the_surface() {
@@ -156,10 +141,9 @@ fn the_surface_bound_is_never_below_the_surface() {
                             readings: 1,
                         })
                         .collect();
-                    let missing = [(n - 1, -92.0)];
                     for prior in [(0.0, 4.0), (-9.0, 1.0)] {
                         let bound = e.surface_gap_bound(0, &meas, 0.0).expect("cells held");
-                        let surf = e.surface(0, &meas, &missing, &[], prior).unwrap();
+                        let surf = e.surface(0, &meas, &[], prior).unwrap();
                         let gap = surf.lse - surf.w.iter().sum::<f64>().ln();
                         assert!(bound >= gap, "{bound} < {gap} (shift {shift})");
                     }

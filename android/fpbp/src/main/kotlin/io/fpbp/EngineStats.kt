@@ -18,8 +18,8 @@ package io.fpbp
  *   walking (heard minus the site's model, dB; a phone that reads weaker is
  *   negative); null for engines that estimate none.
  * @property stepScale the factor the engine multiplies the PDR's step
- *   lengths by (1 while its online step length is off); null for engines
- *   without one.
+ *   lengths by, for an engine that learns one online; null otherwise (no
+ *   engine learns one today).
  * @property radioTrust how far the engine trusts its radio, in [0, 1]: 1
  *   unless its integrity checks (`tcpf.integrity`) found the radio misfitting
  *   its model (on by default after a told start without a radio map) or

@@ -263,7 +263,7 @@ fn radio_update(c: &mut Criterion) {
 fn engine_update(c: &mut Criterion) {
     let site = std::sync::Arc::new(demo_site());
     let mut off = EngineConfig::default();
-    off.tcpf.integrity.fit_free_z2_without_map = 0.0;
+    off.tcpf.integrity.fit_free_z2 = 0.0;
     off.tcpf.integrity.fit_accuracy_m_per_z2_without_map = 0.0;
     for (cfg, name) in [(EngineConfig::default(), ""), (off, ", fit off")] {
         engine_update_with(c, &site, &cfg, name);

@@ -214,7 +214,7 @@ fn engine_walk(c: &mut Criterion) {
     let mut fit_off = EngineConfig::default();
     fit_off.tcpf.integrity.fit_free_z2 = 0.0;
     fit_off.tcpf.integrity.fit_accuracy_m_per_z2 = 0.0;
-    fit_off.tcpf.integrity.fit_free_z2_without_map = 0.0;
+    fit_off.tcpf.integrity.fit_free_z2 = 0.0;
     fit_off.tcpf.integrity.fit_accuracy_m_per_z2_without_map = 0.0;
     let mut reach_off = EngineConfig::default();
     reach_off.tcpf.told_reach_m = 0.0;

@@ -40,15 +40,12 @@ pub struct TcpfCounts {
     /// (`integrity`).
     pub trust_reduced: u64,
     pub trust_low: u64,
-    /// Re-seedings refused: the surface lay farther from the cloud than
-    /// the walk allows (`integrity`).
-    pub reseed_untrusted: u64,
 }
 
 impl TcpfCounts {
     /// Every count with its field's name (the destructuring lists every
     /// field, so a new count does not compile until it is named here).
-    pub fn named(&self) -> [(&'static str, u64); 16] {
+    pub fn named(&self) -> [(&'static str, u64); 15] {
         let TcpfCounts {
             global_starts,
             radio_updates,
@@ -65,7 +62,6 @@ impl TcpfCounts {
             far_updates,
             trust_reduced,
             trust_low,
-            reseed_untrusted,
         } = *self;
         [
             ("global_starts", global_starts),
@@ -83,7 +79,6 @@ impl TcpfCounts {
             ("far_updates", far_updates),
             ("trust_reduced", trust_reduced),
             ("trust_low", trust_low),
-            ("reseed_untrusted", reseed_untrusted),
         ]
     }
 }

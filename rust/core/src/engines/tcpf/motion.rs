@@ -21,7 +21,6 @@ impl TcpfEngine {
         }
         self.pf.set_extra_noise(self.cfg.position_noise_m);
         self.pf.predict(length_m, yaw_rad);
-        self.integrity.on_step(length_m);
         self.told_reach.on_step(length_m, yaw_rad);
         let mut frac = 0.0;
         if let Some(m) = map {

@@ -148,18 +148,9 @@ impl TcpfEngine {
         }
     }
 
-    /// The published radius `r` widened, in quadrature, by
-    /// `integrity.accuracy_share` of the pull the engine did not follow
-    /// (the radio and the walk disagree: either may be wrong), and by the
-    /// readings' misfit (`integrity.fit_accuracy_m_per_z2`).
+    /// The published radius `r` widened, in quadrature, by the readings'
+    /// misfit (`integrity.fit_accuracy_m_per_z2`).
     pub(super) fn accuracy_with_integrity(&self, r: f64) -> f64 {
-        let share = self.cfg.integrity.accuracy_share;
-        let u = self.integrity.unfollowed_m();
-        let r = if share > 0.0 && u > 0.0 {
-            r.hypot(share * u)
-        } else {
-            r
-        };
         r.hypot(self.integrity.fit_accuracy_m(&self.cfg.integrity))
     }
 

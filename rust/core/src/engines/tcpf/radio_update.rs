@@ -35,9 +35,6 @@ impl TcpfEngine {
         let model = Arc::clone(&self.model);
         let floor = self.floor;
         let o = self.offset.phone.mean_db();
-        let spread_before = self.pf.spread_m();
-        // the cloud's mean before the update: only the integrity check reads it
-        let mean_before = self.integrity.is_active().then(|| self.pf.mean()).flatten();
         // the radio's trust tempers its weights (1 unless `integrity`)
         let trust = self.integrity.trust();
         let alpha = lc.alpha(meas.len()) * trust;
@@ -129,18 +126,9 @@ impl TcpfEngine {
         // model's (a wrong told start)
         let ic = &self.cfg.integrity;
         let lost = self.recovery.kill_ema >= ic.fit_lost_wall_kill;
-        let trusted = self.integrity.pull_trust() >= ic.reseed_min_trust
-            && (lost || !self.integrity.fit_holds_reseed(ic));
-        let fit = RadioFit {
-            mean_l,
-            cloud_ll,
-            spread_before,
-        };
+        let trusted = lost || !self.integrity.fit_holds_reseed(ic);
+        let fit = RadioFit { mean_l, cloud_ll };
         self.recover(floor, meas, fit, trusted);
-        if let (Some(a), Some(b)) = (mean_before, self.pf.mean()) {
-            self.integrity
-                .on_radio(&self.cfg.integrity, t_ns, b - a, spread_before);
-        }
         if trust < 1.0 {
             self.counts.trust_reduced += 1;
         }

@@ -6,7 +6,6 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use super::TcpfEngine;
-use crate::Vec2;
 use crate::fusion::recovery::LikelihoodMonitor;
 use crate::radio::Measurement;
 use crate::site::Site;
@@ -52,7 +51,6 @@ impl RecoveryState {
 pub(super) struct RadioFit {
     pub(super) mean_l: f64,
     pub(super) cloud_ll: f64,
-    pub(super) spread_before: f64,
 }
 
 impl TcpfEngine {
@@ -75,11 +73,7 @@ impl TcpfEngine {
         fit: RadioFit,
         trusted: bool,
     ) {
-        let RadioFit {
-            mean_l,
-            cloud_ll,
-            spread_before,
-        } = fit;
+        let RadioFit { mean_l, cloud_ll } = fit;
         let reseed = self.recovery.monitor.update(
             mean_l,
             self.cfg.recovery_alpha_slow,
@@ -132,39 +126,18 @@ impl TcpfEngine {
             }
         {
             let reseed = fraction;
-            // the re-seeding would move the cloud toward the surface's
-            // mean: beyond what the walk allows, the radio is not
-            // followed there (`integrity`), and the refused pull counts
-            let refused = self.integrity.is_active().then(|| {
-                let wsum: f64 = surf.w.iter().sum();
-                let toward = surf
-                    .cells
-                    .iter()
-                    .zip(&surf.w)
-                    .fold(Vec2::zeros(), |s, (c, w)| {
-                        s + c * (*w / wsum.max(f64::MIN_POSITIVE))
-                    });
-                toward - self.pf.mean().unwrap_or(toward)
-            });
-            if let Some(pull) = refused.filter(|pull| {
-                pull.norm() > self.integrity.allowed_m(&self.cfg.integrity, spread_before)
-            }) {
-                self.integrity.refuse(pull * reseed);
-                self.counts.reseed_untrusted += 1;
-            } else {
-                self.resample_now();
-                let site = Arc::clone(&self.site);
-                let map = site.floor(floor);
-                let n =
-                    self.pf
-                        .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
-                            map.is_none_or(|m| m.is_walkable(q))
-                        });
-                self.draw_offsets_from_cells(&surf);
-                let share = n as f64 / self.pf.particles().len().max(1) as f64;
-                self.mix_offset_with_surface(&surf, share);
-                self.counts.reseeded += n as u64;
-            }
+            self.resample_now();
+            let site = Arc::clone(&self.site);
+            let map = site.floor(floor);
+            let n = self
+                .pf
+                .inject_from_cells(reseed, &surf.cells, &surf.w, self.cfg.cell_m, |q| {
+                    map.is_none_or(|m| m.is_walkable(q))
+                });
+            self.draw_offsets_from_cells(&surf);
+            let share = n as f64 / self.pf.particles().len().max(1) as f64;
+            self.mix_offset_with_surface(&surf, share);
+            self.counts.reseeded += n as u64;
         }
     }
 }

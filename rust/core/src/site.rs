@@ -10,7 +10,7 @@ use crate::bounds::{
     MIN_GRID_STEP_M, MIN_PIXELS_PER_METER, show,
 };
 pub use crate::map::Legend;
-use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
+use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png, png_dimensions};
 use crate::{Error, Result};
 
 /// The `format` value of a site file.
@@ -511,21 +511,24 @@ impl Site {
                     let bytes = load_plan(path).map_err(|e| {
                         site_err(site_file, &field, format!("cannot read plan {path}: {e}"))
                     })?;
-                    let plan = classify_png(&bytes, &spec.legend, path)
-                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
                     let kf = f
                         .target_pixels_per_meter
                         .map(|t| FloorMap::downsample_factor(r, t))
                         .unwrap_or(1);
-                    // the downsampled size (blocks of kf, partial blocks kept)
+                    // the downsampled size (blocks of kf, partial blocks
+                    // kept), checked from the PNG header before decoding
+                    let (w_px, h_px) = png_dimensions(&bytes, path)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let (wk, hk) = (
-                        plan.width_px.div_ceil(kf.max(1)) as f64,
-                        plan.height_px.div_ceil(kf.max(1)) as f64,
+                        w_px.div_ceil(kf.max(1)) as f64,
+                        h_px.div_ceil(kf.max(1)) as f64,
                     );
                     check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m).map_err(
                         |msg| site_err(site_file, &field, format!("plan {path}: {msg}")),
                     )?;
+                    let plan = classify_png(&bytes, &spec.legend, path)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
                     if map.walkable_pixel_count() == 0 {
                         return Err(site_err(

@@ -589,6 +589,13 @@ pub fn write(input: &BundleInput<'_>) -> Result<Vec<u8>> {
         input.site_json,
     ));
     for (name, data) in input.plans {
+        if !is_bundle_relative(name) {
+            return bad(
+                format!("entry {}", crate::bounds::echo(name)),
+                "a plan entry is named by a path relative to the bundle \
+                 (no leading `/` or drive, no `..`): rewrite floors[].plan",
+            );
+        }
         parts.push((info(name, EntryKind::Plan, data, None), data));
     }
     if let Some((g, raw)) = &gz {

@@ -536,8 +536,10 @@ fn scan_path(gz: &[u8], mut scanner: Scanner, raw: u64) -> Scanner {
 pub fn is_bundle_relative(name: &str) -> bool {
     let b = name.as_bytes();
     let drive = b.len() >= 2 && b[1] == b':' && b[0].is_ascii_alphabetic();
-    !(name.starts_with('/') || name.starts_with('\\') || drive)
-        && !name.split(['/', '\\']).any(|c| c == "..")
+    !(name.starts_with('/')
+        || name.starts_with('\\')
+        || drive
+        || name.split(['/', '\\']).any(|c| c == ".."))
 }
 
 /// What [`write`] puts in a bundle.

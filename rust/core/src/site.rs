@@ -504,6 +504,26 @@ impl Site {
     ) -> Result<Site> {
         spec.validate(site_file)?;
         let mut floors = Vec::with_capacity(spec.floors.len());
+        // map pixels of the floors so far: the site's floors together hold
+        // at most MAX_MAP_PIXELS (checked before each floor is built, so
+        // many floors of one plan cannot multiply the map's memory)
+        let mut site_px = 0.0;
+        let mut add_px = |px: f64, field: &str| {
+            site_px += px;
+            if site_px > MAX_MAP_PIXELS as f64 {
+                return Err(site_err(
+                    site_file,
+                    field,
+                    format!(
+                        "the floors hold {} map pixels together up to this one, over the \
+                         limit of {MAX_MAP_PIXELS} for a site (lower pixels_per_meter or set \
+                         target_pixels_per_meter)",
+                        show(site_px)
+                    ),
+                ));
+            }
+            Ok(())
+        };
         for (k, f) in spec.floors.iter().enumerate() {
             let map = match (&f.plan, f.open_area_m) {
                 (Some(path), _) => {
@@ -527,6 +547,7 @@ impl Site {
                     check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m).map_err(
                         |msg| site_err(site_file, &field, format!("plan {path}: {msg}")),
                     )?;
+                    add_px(wk * hk, &field)?;
                     let plan = classify_png(&bytes, &spec.legend, path)
                         .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
@@ -542,15 +563,14 @@ impl Site {
                     }
                     map
                 }
-                (None, Some([w, h])) => open_floor_map(
-                    w,
-                    h,
-                    f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER),
-                    spec.grid_interval_m,
-                )
-                .map_err(|e| {
-                    site_err(site_file, format!("floors[{k}].open_area_m"), e.to_string())
-                })?,
+                (None, Some([w, h])) => {
+                    let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
+                    let (wp, hp) = open_floor_px(w, h, r);
+                    let field = format!("floors[{k}].open_area_m");
+                    add_px(wp * hp, &field)?;
+                    open_floor_map(w, h, r, spec.grid_interval_m)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?
+                }
                 (None, None) => {
                     return Err(site_err(site_file, format!("floors[{k}].plan"), "missing"));
                 }
@@ -737,13 +757,12 @@ pub(crate) mod json_path {
                 if self.at.is_some_and(|a| p >= a) && self.tail.len() < TAIL_BYTES {
                     self.tail.push(b);
                 }
-                if b == b'\n' {
-                    if let Target::LineColumn(l, _) = self.target
-                        && self.line < l
-                    {
-                        self.line += 1;
-                        self.line_started(p + 1);
-                    }
+                if b == b'\n'
+                    && let Target::LineColumn(l, _) = self.target
+                    && self.line < l
+                {
+                    self.line += 1;
+                    self.line_started(p + 1);
                 }
                 if self.done {
                     continue;

@@ -437,3 +437,27 @@ fn bundle_site_json_collections_are_bounded_while_parsing() {
         .to_string();
     assert!(e.contains("floors[") && e.contains("more than 256"), "{e}");
 }
+
+#[test]
+fn bundle_floors_cannot_multiply_the_map_memory() {
+    let _g = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    // each floor within the map limit (the second 4096 x 4096 px = 16 Mi
+    // px), together over it: refused from the second plan's header before
+    // that floor is built (256 floors on one such plan entry would have
+    // built 256 maps)
+    let small = plan_png();
+    let big = png_header_only(4096, 4096, 8, 0);
+    let site = r#"{"format": "fpbp-site", "version": 1, "name": "tall",
+  "floors": [{"id": 0, "plan": "plan.png", "pixels_per_meter": 10},
+             {"id": 1, "plan": "big.png", "pixels_per_meter": 20}]}"#;
+    let plans = [("plan.png", small.as_slice()), ("big.png", big.as_slice())];
+    let bytes = bundle::write(&BundleInput {
+        site_json: site.as_bytes(),
+        plans: &plans,
+        radio_map_json: None,
+        writer: "test",
+    })
+    .unwrap();
+    let e = refused(&bytes, &["floors[1].plan", "for a site"]);
+    println!("{e}");
+}

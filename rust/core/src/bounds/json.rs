@@ -273,6 +273,7 @@ mod tests {
     fn collections_are_refused_at_the_element_past_the_limit() {
         let ok: Capped = serde_json::from_str(r#"{"v": [1, 2, 3], "m": {"a": 1}}"#).unwrap();
         assert_eq!(ok.v, [1, 2, 3]);
+        assert_eq!(ok.m.len(), 1);
         let e = serde_json::from_str::<Capped>(r#"{"v": [1, 2, 3, 4, 5]}"#).unwrap_err();
         assert!(e.to_string().contains("more than 3 elements"), "{e}");
         // serde_json places the error after the fourth element and the

@@ -37,23 +37,51 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     let out = args.out.as_deref().context("--out is required")?;
     let started = Instant::now();
     let site_path = &args.input;
-    let site_json = std::fs::read(site_path)
+    let mut site_json = std::fs::read(site_path)
         .with_context(|| format!("cannot read site file {}", site_path.display()))?;
-    let spec = SiteSpec::from_json(&site_json, &site_path.display().to_string())?;
+    let mut spec = SiteSpec::from_json(&site_json, &site_path.display().to_string())?;
     let dir = site_path
         .parent()
         .map(Path::to_path_buf)
         .unwrap_or_default();
-    let mut plans: Vec<(String, Vec<u8>)> = Vec::new();
+    // (path in the site file, name in the bundle, bytes)
+    let mut plans: Vec<(String, String, Vec<u8>)> = Vec::new();
+    let kept: Vec<&str> = spec
+        .floors
+        .iter()
+        .filter_map(|f| f.plan.as_deref())
+        .filter(|p| bundle::is_bundle_relative(p))
+        .collect();
     for f in &spec.floors {
         let Some(p) = &f.plan else { continue };
-        if plans.iter().any(|(q, _)| q == p) {
+        if plans.iter().any(|(q, _, _)| q == p) {
             continue;
         }
+        let taken = plans
+            .iter()
+            .map(|(_, n, _)| n.as_str())
+            .chain(kept.iter().copied());
+        let name = entry_name(p, taken);
         plans.push((
             p.clone(),
+            name,
             fpbp_core::site::files::read_plan_file(&dir.join(p))?,
         ));
+    }
+    // a plan path that is absolute or leaves the site's directory names no
+    // entry of a bundle (its path on this machine): the bundle's site.json
+    // names that plan by its file name instead
+    if plans.iter().any(|(p, n, _)| p != n) {
+        for (k, f) in spec.floors.iter_mut().enumerate() {
+            if let Some(p) = &mut f.plan
+                && let Some((_, n, _)) = plans.iter().find(|(q, _, _)| q == p)
+                && p != n
+            {
+                println!("floors[{k}].plan {p} is entry `{n}` of the bundle");
+                *p = n.clone();
+            }
+        }
+        site_json = spec.to_json_pretty().into_bytes();
     }
     let map_json = match &args.radio_map {
         Some(p) => Some(std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?),
@@ -61,7 +89,7 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     };
     let plan_refs: Vec<(&str, &[u8])> = plans
         .iter()
-        .map(|(n, d)| (n.as_str(), d.as_slice()))
+        .map(|(_, n, d)| (n.as_str(), d.as_slice()))
         .collect();
     let bytes = bundle::write(&BundleInput {
         site_json: &site_json,
@@ -94,6 +122,32 @@ pub fn run(args: Args) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// The entry name of plan path `path`: the path itself when it is relative
+/// to the bundle ([`bundle::is_bundle_relative`]), else its file name, made
+/// unique among `taken` (`plan-2.png`).
+fn entry_name<'a>(path: &str, taken: impl Iterator<Item = &'a str> + Clone) -> String {
+    if bundle::is_bundle_relative(path) {
+        return path.to_string();
+    }
+    let p = Path::new(path);
+    let stem = p
+        .file_stem()
+        .map_or("plan".into(), |s| s.to_string_lossy().into_owned());
+    let ext = p
+        .extension()
+        .map_or(String::new(), |e| format!(".{}", e.to_string_lossy()));
+    (1..)
+        .map(|k| {
+            if k == 1 {
+                format!("{stem}{ext}")
+            } else {
+                format!("{stem}-{k}{ext}")
+            }
+        })
+        .find(|n| taken.clone().all(|t| t != n))
+        .unwrap_or_default()
 }
 
 fn print_manifest(m: &bundle::Manifest, total: usize) {

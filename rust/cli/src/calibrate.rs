@@ -137,7 +137,10 @@ fn load_spec(path: &Path) -> Result<SiteSpec> {
 }
 
 /// Plan paths are relative to the site file: when the output goes to another
-/// directory, point them at the input's plans by absolute path.
+/// directory, point them at the input's plans by a path relative to the
+/// output's directory (`../site/plan.png`), so that the output holds no
+/// path of this machine (`fpbp bundle` names plan entries by these paths).
+/// Absolute only when no relative path exists (another drive).
 fn rebase_plans(spec: &mut SiteSpec, from: &Path, to: &Path) {
     let dir = |p: &Path| p.parent().map(Path::to_path_buf).unwrap_or_default();
     let (a, b) = (dir(from), dir(to));
@@ -149,7 +152,8 @@ fn rebase_plans(spec: &mut SiteSpec, from: &Path, to: &Path) {
         })
         .ok()
     };
-    if canon(&a) == canon(&b) {
+    let Some(b) = canon(&b) else { return };
+    if canon(&a).as_ref() == Some(&b) {
         return;
     }
     for f in &mut spec.floors {
@@ -157,9 +161,40 @@ fn rebase_plans(spec: &mut SiteSpec, from: &Path, to: &Path) {
             && Path::new(plan).is_relative()
             && let Some(abs) = canon(&a.join(plan))
         {
-            f.plan = Some(abs.display().to_string());
+            let p = relative_path(&abs, &b).unwrap_or(abs);
+            // forward slashes: the site file is read on any system
+            let parts: Vec<String> = p
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            f.plan = Some(if p.is_absolute() {
+                p.display().to_string()
+            } else {
+                parts.join("/")
+            });
         }
     }
+}
+
+/// `path` relative to the directory `base` (both canonical), or `None`
+/// when they share no root.
+fn relative_path(path: &Path, base: &Path) -> Option<PathBuf> {
+    use std::path::Component;
+    let p: Vec<Component> = path.components().collect();
+    let b: Vec<Component> = base.components().collect();
+    let common = p.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let rooted = |c: &Component| matches!(c, Component::Prefix(_) | Component::RootDir);
+    if common == 0 || p[..common].iter().all(|c| !rooted(c)) {
+        return None;
+    }
+    let mut out = PathBuf::new();
+    for _ in common..b.len() {
+        out.push("..");
+    }
+    for c in &p[common..] {
+        out.push(c.as_os_str());
+    }
+    Some(out)
 }
 
 fn load_config(path: Option<&PathBuf>) -> Result<EngineConfig> {
@@ -627,6 +662,24 @@ fn radio_map_reads(e: &LogEvent) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn relative_paths_climb_to_the_common_directory() {
+        let rel = |p: &str, b: &str| relative_path(Path::new(p), Path::new(b));
+        assert_eq!(
+            rel("/w/maps/demo/plan.png", "/tmp/out"),
+            Some(PathBuf::from("../../w/maps/demo/plan.png"))
+        );
+        assert_eq!(
+            rel("/w/maps/demo/plan.png", "/w/maps/cal"),
+            Some(PathBuf::from("../demo/plan.png"))
+        );
+        assert_eq!(
+            rel("/w/maps/plan.png", "/w/maps"),
+            Some(PathBuf::from("plan.png"))
+        );
+        assert_eq!(rel("plan.png", "/w"), None);
+    }
     use fpbp_core::engine::replay::ReplayOutput;
     use fpbp_core::engine::{Pose, PoseSource};
     use fpbp_core::events::BleObservation;

@@ -10,6 +10,8 @@
 
 use crate::{Error, Result};
 
+pub mod json;
+
 /// Largest side of a floor, metres (a 10 km building does not exist; the
 /// bound keeps metric loops such as the grid finite whatever the resolution).
 pub const MAX_FLOOR_SIDE_M: f64 = 10_000.0;
@@ -18,9 +20,19 @@ pub const MIN_PIXELS_PER_METER: f64 = 0.01;
 pub const MAX_PIXELS_PER_METER: f64 = 1_000.0;
 /// Largest side of a plan image or an open floor's generated plan, pixels.
 pub const MAX_PLAN_SIDE_PX: usize = 20_000;
-/// Most pixels of a decoded plan image (before downsampling): 4 bytes per
-/// pixel while decoding, 1 per classified pixel.
+/// Most pixels of a decoded plan image (before downsampling): 1 byte per
+/// classified pixel, plus the decoded image (below).
 pub const MAX_PLAN_PIXELS: usize = 64 * 1024 * 1024;
+/// Largest decoded plan image, bytes, as its PNG header declares it (width
+/// x height x bytes per pixel of its colour type), checked before decoding:
+/// with the classified pixels at most 128 MiB + 64 MiB. An 8-bit RGB plan
+/// may have 44 M pixels, a 16-bit RGBA one 16 M.
+pub const MAX_PLAN_DECODED_BYTES: u64 = 128 << 20;
+/// Most floors of a site (each is a map; the tallest building has ~160).
+pub const MAX_FLOORS: usize = 256;
+/// Most beacons, and most access points, of a site (as many as a radio map
+/// may have transmitters).
+pub const MAX_SITE_TRANSMITTERS: usize = MAX_RADIO_MAP_TRANSMITTERS;
 /// Most pixels of a built floor map (after downsampling). Room labelling,
 /// the clearance tables and the features take about 20 bytes per pixel at
 /// worst, so this caps one floor at about 340 MB; the largest real site
@@ -46,8 +58,17 @@ pub const MAX_FINGERPRINT_POINTS: usize = 5_000;
 pub const MAX_RADIO_MAP_TRANSMITTERS: usize = 20_000;
 /// Most cells of one radio-map grid (2 i16 per cell).
 pub const MAX_RADIO_MAP_GRID_CELLS: usize = 1 << 20;
-/// Most cells of all grids of a radio map together (4 bytes each: 256 MB).
-pub const MAX_RADIO_MAP_CELLS: usize = 1 << 26;
+/// Most cells of all grids of a radio map together (4 bytes each: 64 MiB).
+pub const MAX_RADIO_MAP_CELLS: usize = 1 << 24;
+/// Most grids of one transmitter, or of the magnetic section (one per
+/// floor).
+pub const MAX_RADIO_MAP_GRIDS: usize = MAX_FLOORS;
+/// Longest string of a radio map read as a stream (ids, names), bytes as
+/// written (escapes included).
+pub const MAX_RADIO_MAP_STRING_BYTES: usize = 1024;
+/// Longest number token of a JSON stream, characters (an f64 written to
+/// round-trip takes at most 24).
+pub const MAX_JSON_NUMBER_CHARS: usize = 100;
 /// Most particles / random candidates of a filter.
 pub const MAX_PARTICLES: usize = 1_000_000;
 /// Largest plan file read from disk, bytes (callers that read plans check it).

@@ -20,7 +20,11 @@
 //! input and the bounds below before anything is allocated; every entry's
 //! hash is checked; unknown versions, kinds and fields are refused. The
 //! radio map entry is the gzip of its JSON (docs/formats.md "Radio map"),
-//! decoded while it is parsed: no string of the whole map is ever built.
+//! decoded while it is parsed: no string of the whole map is ever built,
+//! not even for an error's message. Every collection, string and number of
+//! the content is bounded as it streams (`bounds::json`; the limits and
+//! why: docs/formats.md "Site bundle"), so a small file of bad bytes is
+//! refused without asking for much memory or time.
 //!
 //! Why SHA-256 (the `sha2` crate of RustCrypto, pure Rust, no_std, no
 //! default features): the manifest's hash is also the content's identity (a
@@ -34,8 +38,10 @@ use std::io::Read;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
+use crate::bounds::json::JsonLimits;
 use crate::radio::RadioMap;
 use crate::radio::radio_map_file::RadioMapFile;
+use crate::site::json_path::Scanner;
 use crate::site::{Site, SiteSpec};
 use crate::{Error, Result};
 
@@ -56,11 +62,16 @@ pub const MAX_MANIFEST_BYTES: u32 = 1 << 20;
 pub const MAX_ENTRIES: usize = 256;
 /// Longest entry name, bytes.
 pub const MAX_NAME_BYTES: usize = 255;
-/// Largest site.json entry, bytes.
-pub const MAX_SITE_JSON_BYTES: u64 = 64 << 20;
+/// Largest site.json entry, bytes (ILC F1's with 554 access points: 131
+/// kB; a site at the transmitter limits, ~8 MB).
+pub const MAX_SITE_JSON_BYTES: u64 = 16 << 20;
 /// Largest radio map once decompressed (`raw_size`), bytes: a gzip bomb
-/// stops here.
-pub const MAX_RADIO_MAP_RAW_BYTES: u64 = 1 << 30;
+/// stops here. The parsed map takes at most about twice its text (a grid
+/// value "0," is 2 bytes of text and 2 in memory; a scan entry "[0,0]," 6
+/// and 8, plus 6 in the query's index), so 64 MiB keeps a refused map under
+/// ~150 MB and ~1.5 s; ILC F1's map (554 transmitters, 1 766 scans) is
+/// 18.7 MB (docs/formats.md "Site bundle").
+pub const MAX_RADIO_MAP_RAW_BYTES: u64 = 64 << 20;
 
 /// Name of the site entry.
 pub const SITE_ENTRY: &str = "site.json";
@@ -449,73 +460,86 @@ impl<'a> Bundle<'a> {
         };
         let at = format!("entry {}", info.name);
         let raw = info.raw_size.unwrap_or(0);
-        let mut reader = Counted {
-            inner: std::io::BufReader::with_capacity(
-                64 * 1024,
-                flate2::read::GzDecoder::new(gz).take(raw.saturating_add(1)),
+        let mut reader = std::io::BufReader::with_capacity(
+            64 * 1024,
+            JsonLimits::new(
+                flate2::read::GzDecoder::new(gz),
+                raw,
+                crate::bounds::MAX_RADIO_MAP_STRING_BYTES,
+                crate::bounds::MAX_JSON_NUMBER_CHARS,
             ),
-            n: 0,
-        };
+        );
         let parsed = serde_json::from_reader::<_, RadioMapFile>(&mut reader);
+        let limits = reader.get_ref();
         let file = match parsed {
             Ok(f) => f,
-            Err(e) if e.is_io() => return bad(at, format!("gzip: {e}")),
-            Err(_) => return Err(self.radio_map_error(&at, gz, raw)),
+            Err(e) if e.is_io() => {
+                return bad(
+                    at,
+                    match limits.violation() {
+                        Some(v) if v.offset >= raw => format!(
+                            "decompresses to more than the manifest's raw_size of {raw} bytes"
+                        ),
+                        Some(v) => format!(
+                            "radio map: field `{}`: {}",
+                            scan_path(gz, Scanner::at_offset(v.offset), raw).path(""),
+                            v.msg
+                        ),
+                        None => format!("gzip: {e}"),
+                    },
+                );
+            }
+            Err(e) => {
+                let (field, msg) = scan_path(gz, Scanner::at_error(&e), raw).describe(&e);
+                return bad(at, format!("radio map: field `{field}`: {msg}"));
+            }
         };
-        if reader.n != raw {
+        if limits.bytes_read() != raw {
             return bad(
                 at,
                 format!(
-                    "decompresses to {}{} bytes, the manifest's raw_size is {raw}",
-                    reader.n,
-                    if reader.n > raw { " or more" } else { "" }
+                    "decompresses to {} bytes, the manifest's raw_size is {raw}",
+                    limits.bytes_read()
                 ),
             );
         }
-        let map = RadioMap::from_file(&file, site).map_err(|e| Error::Bundle {
+        let map = RadioMap::from_file_owned(file, site).map_err(|e| Error::Bundle {
             at: at.clone(),
             msg: e.to_string(),
         })?;
         Ok(Some(map))
     }
+}
 
-    /// The error of a radio map entry whose JSON does not parse, naming the
-    /// field: the text is decoded again in full (bounded by `raw_size`) for
-    /// the field path. Only on this error path.
-    fn radio_map_error(&self, at: &str, gz: &[u8], raw: u64) -> Error {
-        let mut text = String::new();
-        let read = flate2::read::GzDecoder::new(gz)
-            .take(raw)
-            .read_to_string(&mut text);
-        let msg = match read {
-            Err(e) => format!("gzip: {e}"),
-            Ok(_) => match serde_json::from_str::<RadioMapFile>(&text) {
-                Err(e) => {
-                    let (field, msg) = crate::site::json_path::describe(text.as_bytes(), &e);
-                    format!("radio map: field `{field}`: {msg}")
+/// The JSON path scan `scanner` run over the decompressed text of `gz` (at
+/// most `raw` bytes, read in chunks: no text of the map is held), for the
+/// message of an error found while parsing it. Only on error paths.
+fn scan_path(gz: &[u8], mut scanner: Scanner, raw: u64) -> Scanner {
+    let mut text = flate2::read::GzDecoder::new(gz).take(raw);
+    let mut buf = vec![0u8; 64 * 1024];
+    loop {
+        match text.read(&mut buf) {
+            Ok(0) | Err(_) => break,
+            Ok(k) => {
+                if scanner.feed(&buf[..k]) {
+                    break;
                 }
-                Ok(_) => "radio map: the JSON does not parse as a stream".into(),
-            },
-        };
-        Error::Bundle {
-            at: at.to_string(),
-            msg,
+            }
         }
     }
+    scanner
 }
 
-/// A reader that counts the bytes it handed out.
-struct Counted<R> {
-    inner: R,
-    n: u64,
-}
-
-impl<R: Read> Read for Counted<R> {
-    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
-        let k = self.inner.read(buf)?;
-        self.n += k as u64;
-        Ok(k)
-    }
+/// Whether `name` is a path relative to the bundle, as [`write`] names plan
+/// entries: not absolute (`/x`, `\\x`, `C:x`), no `..` component. Bundles
+/// written before this check may hold absolute names; they still read.
+pub fn is_bundle_relative(name: &str) -> bool {
+    let b = name.as_bytes();
+    let drive = b.len() >= 2 && b[1] == b':' && b[0].is_ascii_alphabetic();
+    !(name.starts_with('/')
+        || name.starts_with('\\')
+        || drive
+        || name.split(['/', '\\']).any(|c| c == ".."))
 }
 
 /// What [`write`] puts in a bundle.
@@ -523,7 +547,8 @@ impl<R: Read> Read for Counted<R> {
 pub struct BundleInput<'a> {
     /// site.json as it is (its plan paths name the plan entries).
     pub site_json: &'a [u8],
-    /// Each plan path of the site and the image's bytes.
+    /// Each plan path of the site and the image's bytes; the paths name
+    /// the entries and must be relative ([`is_bundle_relative`]).
     pub plans: &'a [(&'a str, &'a [u8])],
     /// The radio map's JSON, or none (the engines use the site's path-loss
     /// models).
@@ -566,6 +591,13 @@ pub fn write(input: &BundleInput<'_>) -> Result<Vec<u8>> {
         input.site_json,
     ));
     for (name, data) in input.plans {
+        if !is_bundle_relative(name) {
+            return bad(
+                format!("entry {}", crate::bounds::echo(name)),
+                "a plan entry is named by a path relative to the bundle \
+                 (no leading `/` or drive, no `..`): rewrite floors[].plan",
+            );
+        }
         parts.push((info(name, EntryKind::Plan, data, None), data));
     }
     if let Some((g, raw)) = &gz {

@@ -10,7 +10,7 @@ use crate::bounds::{
     MIN_GRID_STEP_M, MIN_PIXELS_PER_METER, show,
 };
 pub use crate::map::Legend;
-use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png};
+use crate::map::{DEFAULT_GRID_INTERVAL_M, Feature, FloorMap, classify_png, png_dimensions};
 use crate::{Error, Result};
 
 /// The `format` value of a site file.
@@ -48,20 +48,37 @@ pub struct SiteSpec {
     /// GML grid interval I_M, metres (FP-BP Sec. IV-A4).
     #[serde(default = "default_grid_interval_m")]
     pub grid_interval_m: f64,
-    /// Floors, at least one.
+    /// Floors, at least one, at most [`crate::bounds::MAX_FLOORS`]
+    /// (counted while parsing).
+    #[serde(deserialize_with = "floors")]
     pub floors: Vec<FloorSpec>,
     /// Beacons; may be empty (PDR-only sites, or before `fpbp calibrate`).
-    #[serde(default)]
+    /// At most [`crate::bounds::MAX_SITE_TRANSMITTERS`].
+    #[serde(default, deserialize_with = "transmitters")]
     pub beacons: Vec<BeaconSpec>,
     /// WiFi access points, one entry per BSSID (`id` = lower-case
     /// `aa:bb:cc:dd:ee:ff`), with the same fields and model as beacons
     /// (docs/formats.md says why a parallel list). Left out of the file when
-    /// empty.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    /// empty. At most [`crate::bounds::MAX_SITE_TRANSMITTERS`].
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "transmitters"
+    )]
     pub access_points: Vec<BeaconSpec>,
     /// Optional WGS-84 georeference of the MCS (for GNSS and lat/lon truth).
     #[serde(default)]
     pub georef: Option<GeoRef>,
+}
+
+fn floors<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<FloorSpec>, D::Error> {
+    crate::bounds::json::vec(d, crate::bounds::MAX_FLOORS)
+}
+
+fn transmitters<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<BeaconSpec>, D::Error> {
+    crate::bounds::json::vec(d, crate::bounds::MAX_SITE_TRANSMITTERS)
 }
 
 fn is_zero(v: &f64) -> bool {
@@ -355,12 +372,13 @@ impl SiteSpec {
     /// non-empty and unique, floors known, finite positions, a negative R0
     /// and a positive exponent.
     fn validate_transmitters(&self, file: &str, list: &str, items: &[BeaconSpec]) -> Result<()> {
+        let mut seen = std::collections::BTreeSet::new();
         for (k, b) in items.iter().enumerate() {
             let at = |name: &str| format!("{list}[{k}].{name}");
             if b.id.trim().is_empty() {
                 return Err(site_err(file, at("id"), "empty id"));
             }
-            if items[..k].iter().any(|c| c.id == b.id) {
+            if !seen.insert(b.id.as_str()) {
                 return Err(site_err(file, at("id"), format!("duplicate id {}", b.id)));
             }
             if !self.floors.iter().any(|f| f.id == b.floor) {
@@ -486,6 +504,26 @@ impl Site {
     ) -> Result<Site> {
         spec.validate(site_file)?;
         let mut floors = Vec::with_capacity(spec.floors.len());
+        // map pixels of the floors so far: the site's floors together hold
+        // at most MAX_MAP_PIXELS (checked before each floor is built, so
+        // many floors of one plan cannot multiply the map's memory)
+        let mut site_px = 0.0;
+        let mut add_px = |px: f64, field: &str| {
+            site_px += px;
+            if site_px > MAX_MAP_PIXELS as f64 {
+                return Err(site_err(
+                    site_file,
+                    field,
+                    format!(
+                        "the floors hold {} map pixels together up to this one, over the \
+                         limit of {MAX_MAP_PIXELS} for a site (lower pixels_per_meter or set \
+                         target_pixels_per_meter)",
+                        show(site_px)
+                    ),
+                ));
+            }
+            Ok(())
+        };
         for (k, f) in spec.floors.iter().enumerate() {
             let map = match (&f.plan, f.open_area_m) {
                 (Some(path), _) => {
@@ -493,21 +531,25 @@ impl Site {
                     let bytes = load_plan(path).map_err(|e| {
                         site_err(site_file, &field, format!("cannot read plan {path}: {e}"))
                     })?;
-                    let plan = classify_png(&bytes, &spec.legend, path)
-                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
                     let kf = f
                         .target_pixels_per_meter
                         .map(|t| FloorMap::downsample_factor(r, t))
                         .unwrap_or(1);
-                    // the downsampled size (blocks of kf, partial blocks kept)
+                    // the downsampled size (blocks of kf, partial blocks
+                    // kept), checked from the PNG header before decoding
+                    let (w_px, h_px) = png_dimensions(&bytes, path)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let (wk, hk) = (
-                        plan.width_px.div_ceil(kf.max(1)) as f64,
-                        plan.height_px.div_ceil(kf.max(1)) as f64,
+                        w_px.div_ceil(kf.max(1)) as f64,
+                        h_px.div_ceil(kf.max(1)) as f64,
                     );
                     check_floor_size(wk, hk, r / kf.max(1) as f64, spec.grid_interval_m).map_err(
                         |msg| site_err(site_file, &field, format!("plan {path}: {msg}")),
                     )?;
+                    add_px(wk * hk, &field)?;
+                    let plan = classify_png(&bytes, &spec.legend, path)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?;
                     let map = FloorMap::from_classified_plan(plan, r, kf, spec.grid_interval_m);
                     if map.walkable_pixel_count() == 0 {
                         return Err(site_err(
@@ -521,15 +563,14 @@ impl Site {
                     }
                     map
                 }
-                (None, Some([w, h])) => open_floor_map(
-                    w,
-                    h,
-                    f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER),
-                    spec.grid_interval_m,
-                )
-                .map_err(|e| {
-                    site_err(site_file, format!("floors[{k}].open_area_m"), e.to_string())
-                })?,
+                (None, Some([w, h])) => {
+                    let r = f.pixels_per_meter.unwrap_or(OPEN_FLOOR_PIXELS_PER_METER);
+                    let (wp, hp) = open_floor_px(w, h, r);
+                    let field = format!("floors[{k}].open_area_m");
+                    add_px(wp * hp, &field)?;
+                    open_floor_map(w, h, r, spec.grid_interval_m)
+                        .map_err(|e| site_err(site_file, &field, e.to_string()))?
+                }
                 (None, None) => {
                     return Err(site_err(site_file, format!("floors[{k}].plan"), "missing"));
                 }
@@ -593,38 +634,23 @@ fn check_on_plan(
 
 pub(crate) mod json_path {
     //! The JSON path (`floors[0].pixels_per_meter`) at a serde_json error
-    //! position, by scanning the text up to it.
+    //! position, by scanning the text up to it: from a slice, or from a
+    //! stream fed in chunks ([`Scanner`]; memory bounded by the nesting
+    //! depth, not by the text).
 
     /// The path of the field at fault and a message for a serde_json error
     /// on `bytes`: NaN / Infinity (not JSON) are said as such, and a message
     /// echoing input is cut to [`crate::bounds::MAX_MESSAGE_CHARS`].
     pub(crate) fn describe(bytes: &[u8], e: &serde_json::Error) -> (String, String) {
-        let msg = e.to_string();
-        let path = path_at_error(bytes, e.line(), e.column(), &msg);
-        // serde_json's column points at the byte it stopped on (1-based)
-        let mut off = 0usize;
-        let mut l = 1usize;
-        while off < bytes.len() && l < e.line() {
-            if bytes[off] == b'\n' {
-                l += 1;
-            }
-            off += 1;
-        }
-        let at = (off + e.column().saturating_sub(1)).min(bytes.len());
-        let rest = &bytes[at..];
-        let word =
-            |w: &[u8]| rest.starts_with(w) || rest.get(1..).is_some_and(|r| r.starts_with(w));
-        let msg = if word(b"NaN") || word(b"Infinity") || word(b"-Infinity") {
-            format!(
-                "NaN and Infinity are not allowed (JSON numbers are finite) at line {}, column {}",
-                e.line(),
-                e.column()
-            )
-        } else {
-            crate::bounds::cut(&msg, crate::bounds::MAX_MESSAGE_CHARS)
-        };
-        (path, msg)
+        let mut s = Scanner::at_error(e);
+        s.feed(bytes);
+        s.describe(e)
     }
+
+    /// Longest object key kept for a path, bytes (a longer key is cut).
+    const MAX_KEY_BYTES: usize = 256;
+    /// Bytes kept from the error position on (to tell NaN / Infinity).
+    const TAIL_BYTES: usize = 11;
 
     enum Frame {
         Object { key: Option<String>, want_key: bool },
@@ -637,88 +663,232 @@ pub(crate) mod json_path {
         Some(rest[..end].to_string())
     }
 
-    /// Path of the value being read at (line, column) (1-based, bytes).
-    pub(super) fn path_at_error(bytes: &[u8], line: usize, column: usize, msg: &str) -> String {
-        // Byte offset of (line, column).
-        let mut off = 0usize;
-        let mut l = 1usize;
-        while off < bytes.len() && l < line {
-            if bytes[off] == b'\n' {
-                l += 1;
-            }
-            off += 1;
+    /// Where a scan stops.
+    #[derive(Clone, Copy)]
+    enum Target {
+        /// serde_json's (line, column), 1-based, bytes: the value being
+        /// read there (a string begun before it is read to its end).
+        LineColumn(usize, usize),
+        /// The byte at this offset (0-based): the value holding it.
+        Offset(u64),
+    }
+
+    /// The JSON path at a position of a text fed in chunks ([`feed`]),
+    /// keeping only the open objects and arrays (serde_json refuses nesting
+    /// deeper than 128) and keys of at most [`MAX_KEY_BYTES`].
+    ///
+    /// [`feed`]: Scanner::feed
+    pub(crate) struct Scanner {
+        target: Target,
+        /// Offset of the next byte.
+        pos: u64,
+        /// Line of the next byte (1-based).
+        line: usize,
+        /// Offset where the scan of structure ends (exclusive), once known.
+        end: Option<u64>,
+        /// Offset of the error (the tail's start), once known.
+        at: Option<u64>,
+        stack: Vec<Frame>,
+        /// Inside a string: its bytes so far (when it is a key), whether
+        /// the next byte is escaped.
+        string: Option<(Option<Vec<u8>>, bool)>,
+        /// The structure scan is over.
+        done: bool,
+        tail: Vec<u8>,
+    }
+
+    impl Scanner {
+        /// A scan to the position of serde_json error `e`.
+        pub(crate) fn at_error(e: &serde_json::Error) -> Scanner {
+            Self::new(Target::LineColumn(e.line(), e.column()))
         }
-        let end = (off + column).min(bytes.len());
-        let mut stack: Vec<Frame> = Vec::new();
-        let mut i = 0usize;
-        while i < end {
-            match bytes[i] {
-                b'{' => stack.push(Frame::Object {
-                    key: None,
-                    want_key: true,
-                }),
-                b'[' => stack.push(Frame::Array { index: 0 }),
-                // The error of a missing field is reported at the closing
-                // brace: keep that object on the stack.
-                b'}' | b']' if i + 1 < end => {
-                    stack.pop();
+
+        /// A scan to the byte at `offset` (0-based).
+        pub(crate) fn at_offset(offset: u64) -> Scanner {
+            Self::new(Target::Offset(offset))
+        }
+
+        fn new(target: Target) -> Scanner {
+            let mut s = Scanner {
+                target,
+                pos: 0,
+                line: 1,
+                end: None,
+                at: None,
+                stack: Vec::new(),
+                string: None,
+                done: false,
+                tail: Vec::new(),
+            };
+            s.line_started(0);
+            s
+        }
+
+        /// Line `self.line` starts at `offset`: the end is known when it is
+        /// the target's.
+        fn line_started(&mut self, offset: u64) {
+            match self.target {
+                Target::LineColumn(l, c) if l == self.line => {
+                    self.end = Some(offset + c as u64);
+                    self.at = Some(offset + c.saturating_sub(1) as u64);
                 }
-                b',' => match stack.last_mut() {
-                    Some(Frame::Object { want_key, .. }) => *want_key = true,
-                    Some(Frame::Array { index }) => *index += 1,
-                    None => {}
-                },
-                b'"' => {
-                    let start = i + 1;
-                    i += 1;
-                    while i < bytes.len() && bytes[i] != b'"' {
-                        if bytes[i] == b'\\' {
-                            i += 1;
-                        }
-                        i += 1;
-                    }
-                    if let Some(Frame::Object { key, want_key }) = stack.last_mut()
-                        && *want_key
-                    {
-                        *key = Some(
-                            String::from_utf8_lossy(&bytes[start..i.min(bytes.len())]).into_owned(),
-                        );
-                        *want_key = false;
-                    }
+                Target::Offset(o) if self.end.is_none() => {
+                    self.end = Some(o + 1);
+                    self.at = Some(o);
                 }
                 _ => {}
             }
-            i += 1;
         }
-        let missing = backticked(msg, "missing field `");
-        let mut path = String::new();
-        let n = stack.len();
-        for (k, f) in stack.iter().enumerate() {
-            match f {
-                Frame::Object { key, .. } => {
-                    if k + 1 == n && missing.is_some() {
-                        break;
-                    }
-                    if let Some(key) = key {
-                        if !path.is_empty() {
-                            path.push('.');
-                        }
-                        path.push_str(key);
-                    }
+
+        /// Whether the scan needs no more bytes.
+        pub(crate) fn finished(&self) -> bool {
+            self.done && self.tail.len() >= TAIL_BYTES
+        }
+
+        /// Feeds the next bytes of the text; returns whether the scan is
+        /// finished (later bytes change nothing).
+        pub(crate) fn feed(&mut self, bytes: &[u8]) -> bool {
+            for &b in bytes {
+                if self.finished() {
+                    return true;
                 }
-                Frame::Array { index } => path.push_str(&format!("[{index}]")),
+                let p = self.pos;
+                self.pos += 1;
+                if self.at.is_some_and(|a| p >= a) && self.tail.len() < TAIL_BYTES {
+                    self.tail.push(b);
+                }
+                if b == b'\n'
+                    && let Target::LineColumn(l, _) = self.target
+                    && self.line < l
+                {
+                    self.line += 1;
+                    self.line_started(p + 1);
+                }
+                if self.done {
+                    continue;
+                }
+                let past_end = self.end.is_some_and(|e| p >= e);
+                if let Some((key, escaped)) = &mut self.string {
+                    // a string begun before the end is read to its close
+                    // (a key), except when the target is a byte offset
+                    if past_end && matches!(self.target, Target::Offset(_)) {
+                        self.done = true;
+                        continue;
+                    }
+                    if *escaped {
+                        *escaped = false;
+                    } else if b == b'\\' {
+                        *escaped = true;
+                    } else if b == b'"' {
+                        let key = key.take();
+                        self.string = None;
+                        if let (Some(k), Some(Frame::Object { key, want_key })) =
+                            (key, self.stack.last_mut())
+                        {
+                            *key = Some(String::from_utf8_lossy(&k).into_owned());
+                            *want_key = false;
+                        }
+                        if past_end {
+                            self.done = true;
+                        }
+                        continue;
+                    }
+                    if let Some(k) = key
+                        && k.len() < MAX_KEY_BYTES
+                    {
+                        k.push(b);
+                    }
+                    continue;
+                }
+                if past_end {
+                    self.done = true;
+                    continue;
+                }
+                let last = self.end.is_some_and(|e| p + 1 >= e);
+                match b {
+                    b'{' => self.stack.push(Frame::Object {
+                        key: None,
+                        want_key: true,
+                    }),
+                    b'[' => self.stack.push(Frame::Array { index: 0 }),
+                    // The error of a missing field is reported at the
+                    // closing brace: keep that object on the stack.
+                    b'}' | b']' if !last => {
+                        self.stack.pop();
+                    }
+                    b',' => match self.stack.last_mut() {
+                        Some(Frame::Object { want_key, .. }) => *want_key = true,
+                        Some(Frame::Array { index }) => *index += 1,
+                        None => {}
+                    },
+                    b'"' => {
+                        let is_key = matches!(
+                            self.stack.last(),
+                            Some(Frame::Object { want_key: true, .. })
+                        );
+                        self.string = Some((is_key.then(Vec::new), false));
+                    }
+                    _ => {}
+                }
             }
+            self.finished()
         }
-        if let Some(m) = missing {
-            if !path.is_empty() {
-                path.push('.');
+
+        /// The path at the target (`(top level)` when empty); `msg` is the
+        /// error's message (a missing field is named in it).
+        pub(crate) fn path(&self, msg: &str) -> String {
+            let missing = backticked(msg, "missing field `");
+            let mut path = String::new();
+            let n = self.stack.len();
+            for (k, f) in self.stack.iter().enumerate() {
+                match f {
+                    Frame::Object { key, .. } => {
+                        if k + 1 == n && missing.is_some() {
+                            break;
+                        }
+                        if let Some(key) = key {
+                            if !path.is_empty() {
+                                path.push('.');
+                            }
+                            path.push_str(key);
+                        }
+                    }
+                    Frame::Array { index } => path.push_str(&format!("[{index}]")),
+                }
             }
-            path.push_str(&m);
+            if let Some(m) = missing {
+                if !path.is_empty() {
+                    path.push('.');
+                }
+                path.push_str(&m);
+            }
+            if path.is_empty() {
+                path = "(top level)".into();
+            }
+            path
         }
-        if path.is_empty() {
-            path = "(top level)".into();
+
+        /// The path and message of serde_json error `e` (the scan was made
+        /// [`Scanner::at_error`]): NaN / Infinity (not JSON) are said as
+        /// such, and a message echoing input is cut to
+        /// [`crate::bounds::MAX_MESSAGE_CHARS`].
+        pub(crate) fn describe(&self, e: &serde_json::Error) -> (String, String) {
+            let msg = e.to_string();
+            let path = self.path(&msg);
+            let rest = self.tail.as_slice();
+            let word =
+                |w: &[u8]| rest.starts_with(w) || rest.get(1..).is_some_and(|r| r.starts_with(w));
+            let msg = if word(b"NaN") || word(b"Infinity") || word(b"-Infinity") {
+                format!(
+                    "NaN and Infinity are not allowed (JSON numbers are finite) at line {}, column {}",
+                    e.line(),
+                    e.column()
+                )
+            } else {
+                crate::bounds::cut(&msg, crate::bounds::MAX_MESSAGE_CHARS)
+            };
+            (path, msg)
         }
-        path
     }
 }
 

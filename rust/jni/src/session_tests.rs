@@ -488,3 +488,41 @@ fn start_bundle_equals_start_with_the_same_files() {
         _ => panic!("expected an unknown engine error"),
     }
 }
+
+/// Issue 60 item 10: a bundle over the core's limits (here a radio map of
+/// 20 001 transmitters, refused while it streams) is an
+/// IllegalArgumentException naming the entry and field, not an abort.
+#[test]
+fn start_bundle_over_the_limits_is_an_illegal_argument() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../maps/demo");
+    let site = std::fs::read_to_string(dir.join("site.json")).expect("demo site");
+    let plan = std::fs::read(dir.join("plan.png")).expect("demo plan");
+    let spec =
+        fpbp_core::site::SiteSpec::from_json(site.as_bytes(), "site.json").expect("demo spec");
+    let plan_name = spec.floors[0].plan.clone().expect("a plan");
+    let plans = [(plan_name.as_str(), plan.as_slice())];
+    let tx = r#"{"id": "mac:AA:BB:CC:DD:EE:01", "kind": "ble", "floor": 0, "x_m": 1, "y_m": 1},"#;
+    let map = format!(
+        r#"{{"format": "fpbp-radio-map", "version": 1, "transmitters": [{}{{}}]}}"#,
+        tx.repeat(fpbp_core::bounds::MAX_RADIO_MAP_TRANSMITTERS + 1)
+    );
+    let bytes = fpbp_core::bundle::write(&fpbp_core::bundle::BundleInput {
+        site_json: site.as_bytes(),
+        plans: &plans,
+        radio_map_json: Some(map.as_bytes()),
+        writer: "test",
+    })
+    .expect("bundle");
+    match Session::start_bundle(&bytes, "", "tcpf", None) {
+        Err(e @ BridgeError::IllegalArgument(_)) => {
+            assert_eq!(e.java_class(), "java/lang/IllegalArgumentException");
+            let m = e.to_string();
+            assert!(
+                m.contains("radio-map.json.gz") && m.contains("more than 20000 elements"),
+                "{m}"
+            );
+        }
+        Err(e) => panic!("unexpected error {e}"),
+        Ok(_) => panic!("started from a bundle over the limits"),
+    }
+}

@@ -17,7 +17,7 @@ pub mod survey_coverage;
 mod walk;
 
 pub use crossings::Crossings;
-pub use plan::{ClassifiedPlan, Legend, classify_png};
+pub use plan::{ClassifiedPlan, Legend, classify_png, png_dimensions};
 pub use raycast::crosses_wall_sampled;
 pub use rooms::{Room, RoomId};
 pub use walk::{TRACK_WALL_STEP_M, WALK_MAX_NODES, WalkStep};

@@ -85,21 +85,43 @@ pub fn classify_rgb(rgb: [u8; 3], legend: &Legend) -> (Feature, bool) {
     (best.0, best.1.sqrt() <= legend.tolerance)
 }
 
+/// Width and height of a PNG, from its header (nothing is decoded). `file`
+/// names the plan in errors.
+pub fn png_dimensions(png_bytes: &[u8], file: &str) -> Result<(usize, usize)> {
+    let (w, h) = png_reader(png_bytes)
+        .into_dimensions()
+        .map_err(|e| Error::Plan {
+            file: file.to_string(),
+            msg: format!("not a decodable PNG: {e}"),
+        })?;
+    Ok((w as usize, h as usize))
+}
+
+fn png_reader(png_bytes: &[u8]) -> image::ImageReader<std::io::Cursor<&[u8]>> {
+    image::ImageReader::with_format(std::io::Cursor::new(png_bytes), image::ImageFormat::Png)
+}
+
 /// Decodes `png_bytes` and classifies every pixel with `legend`. Alpha is
 /// ignored (the plan is expected opaque). `file` names the plan in errors.
+/// The header's size and colour type are checked before anything is
+/// decoded: at most [`MAX_PLAN_SIDE_PX`] a side, [`MAX_PLAN_PIXELS`] pixels
+/// and [`MAX_PLAN_DECODED_BYTES`] decoded; the decoded image is classified
+/// in place (no second copy of it).
+///
+/// [`MAX_PLAN_SIDE_PX`]: crate::bounds::MAX_PLAN_SIDE_PX
+/// [`MAX_PLAN_PIXELS`]: crate::bounds::MAX_PLAN_PIXELS
+/// [`MAX_PLAN_DECODED_BYTES`]: crate::bounds::MAX_PLAN_DECODED_BYTES
 pub fn classify_png(png_bytes: &[u8], legend: &Legend, file: &str) -> Result<ClassifiedPlan> {
-    use crate::bounds::{MAX_PLAN_PIXELS, MAX_PLAN_SIDE_PX};
+    use crate::bounds::{MAX_PLAN_DECODED_BYTES, MAX_PLAN_PIXELS, MAX_PLAN_SIDE_PX};
+    use image::ImageDecoder;
     let plan_err = |msg: String| Error::Plan {
         file: file.to_string(),
         msg,
     };
-    let reader = || {
-        image::ImageReader::with_format(std::io::Cursor::new(png_bytes), image::ImageFormat::Png)
-    };
+    let not_png = |e: image::ImageError| plan_err(format!("not a decodable PNG: {e}"));
     // The size is read from the header and checked before anything is decoded.
-    let (w, h) = reader()
-        .into_dimensions()
-        .map_err(|e| plan_err(format!("not a decodable PNG: {e}")))?;
+    let mut decoder = png_reader(png_bytes).into_decoder().map_err(not_png)?;
+    let (w, h) = decoder.dimensions();
     let (w, h) = (w as usize, h as usize);
     if w == 0 || h == 0 {
         return Err(plan_err("image has zero size".into()));
@@ -110,28 +132,48 @@ pub fn classify_png(png_bytes: &[u8], legend: &Legend, file: &str) -> Result<Cla
              {MAX_PLAN_PIXELS} px in all"
         )));
     }
+    let decoded = decoder.total_bytes();
+    if decoded > MAX_PLAN_DECODED_BYTES {
+        return Err(plan_err(format!(
+            "image is {w} x {h} px of {:?}: {decoded} bytes decoded, over the limit of \
+             {MAX_PLAN_DECODED_BYTES} (save it as 8-bit RGB or with fewer pixels)",
+            decoder.color_type()
+        )));
+    }
     let mut limits = image::Limits::default();
     limits.max_image_width = Some(MAX_PLAN_SIDE_PX as u32);
     limits.max_image_height = Some(MAX_PLAN_SIDE_PX as u32);
-    limits.max_alloc = Some(8 * MAX_PLAN_PIXELS as u64);
-    let mut decoder = reader();
-    decoder.limits(limits);
-    let img = decoder
-        .decode()
-        .map_err(|e| plan_err(format!("not a decodable PNG: {e}")))?;
-    let rgb = img.to_rgb8();
+    limits.max_alloc = Some(MAX_PLAN_DECODED_BYTES + (1 << 20));
+    decoder.set_limits(limits).map_err(not_png)?;
+    let img = image::DynamicImage::from_decoder(decoder).map_err(not_png)?;
     let mut features = Vec::new();
     features
         .try_reserve_exact(w * h)
         .map_err(|e| plan_err(format!("cannot allocate {w} x {h} classified pixels: {e}")))?;
     let mut unclassified = 0usize;
-    for p in rgb.pixels() {
-        let (f, ok) = classify_rgb(p.0, legend);
+    let mut push = |rgb: [u8; 3]| {
+        let (f, ok) = classify_rgb(rgb, legend);
         if !ok {
             unclassified += 1;
         }
         features.push(f);
+    };
+    match &img {
+        image::DynamicImage::ImageRgb8(b) => b.pixels().for_each(|p| push(p.0)),
+        image::DynamicImage::ImageRgba8(b) => {
+            b.pixels().for_each(|p| push([p.0[0], p.0[1], p.0[2]]))
+        }
+        image::DynamicImage::ImageLuma8(b) => b.pixels().for_each(|p| push([p.0[0]; 3])),
+        image::DynamicImage::ImageLumaA8(b) => b.pixels().for_each(|p| push([p.0[0]; 3])),
+        // 16-bit plans (rare): converted pixel by pixel as `to_rgb8` does
+        other => {
+            use image::GenericImageView;
+            for (_, _, p) in other.pixels() {
+                push([p.0[0], p.0[1], p.0[2]]);
+            }
+        }
     }
+    drop(img);
     let plan = ClassifiedPlan {
         width_px: w,
         height_px: h,
@@ -185,6 +227,32 @@ mod tests {
         );
         assert_eq!(p.unclassified_count, 1);
         assert!((p.unclassified_fraction() - 0.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sixteen_bit_and_grey_plans_classify_as_their_rgb8_copy() {
+        let legend = Legend {
+            max_unclassified_fraction: 1.0,
+            ..Legend::default()
+        };
+        let rgb16 = image::ImageBuffer::<image::Rgb<u16>, _>::from_fn(7, 5, |x, y| {
+            image::Rgb([x as u16 * 9000, y as u16 * 16000, 65535 - x as u16 * 5000])
+        });
+        let grey = image::GrayImage::from_fn(7, 5, |x, y| image::Luma([(x * 30 + y * 7) as u8]));
+        for img in [
+            image::DynamicImage::ImageRgb16(rgb16),
+            image::DynamicImage::ImageLuma8(grey),
+        ] {
+            let mut bytes = std::io::Cursor::new(Vec::new());
+            img.write_to(&mut bytes, image::ImageFormat::Png).unwrap();
+            let got = classify_png(bytes.get_ref(), &legend, "p.png").unwrap();
+            let want: Vec<Feature> = img
+                .to_rgb8()
+                .pixels()
+                .map(|p| classify_rgb(p.0, &legend).0)
+                .collect();
+            assert_eq!(got.features, want);
+        }
     }
 
     #[test]

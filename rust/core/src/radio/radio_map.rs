@@ -94,8 +94,16 @@ pub struct Grid {
     pub nx: usize,
     pub ny: usize,
     /// Row-major (x fastest), 0.1 dB, -32768 ([`NO_VALUE`]) = no value.
+    /// At most [`crate::bounds::MAX_RADIO_MAP_GRID_CELLS`] values each
+    /// (counted while parsing).
+    #[serde(deserialize_with = "grid_values")]
     pub mean_dbm_x10: Vec<i16>,
+    #[serde(deserialize_with = "grid_values")]
     pub sd_dbm_x10: Vec<i16>,
+}
+
+fn grid_values<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<Vec<i16>, D::Error> {
+    crate::bounds::json::vec(d, crate::bounds::MAX_RADIO_MAP_GRID_CELLS)
 }
 
 /// Grid values (0.1 dB) below this are looked up in [`TENTHS`].

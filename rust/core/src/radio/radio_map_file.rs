@@ -40,6 +40,8 @@ pub struct RadioMapFile {
     pub site: String,
     #[serde(default)]
     pub fallback: FallbackParams,
+    /// At most [`MAX_RADIO_MAP_TRANSMITTERS`] (counted while parsing).
+    #[serde(deserialize_with = "transmitters")]
     pub transmitters: Vec<TxFile>,
     /// The survey's scan vectors (version 2), for `tcpf`'s anchors.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -50,8 +52,40 @@ pub struct RadioMapFile {
     pub magnetic: Option<MagneticFile>,
     /// The survey's phone models' offsets per radio, dB (version 4;
     /// [`super::device_offsets`]).
-    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "BTreeMap::is_empty",
+        deserialize_with = "devices"
+    )]
     pub device_offsets: BTreeMap<String, DeviceOffset>,
+}
+
+// Element limits applied while parsing (`bounds::json`): a file past one is
+// refused at the element past it, before the collection grows further.
+fn transmitters<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<TxFile>, D::Error> {
+    crate::bounds::json::vec(d, MAX_RADIO_MAP_TRANSMITTERS)
+}
+pub(crate) fn grids<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<Grid>, D::Error> {
+    crate::bounds::json::vec(d, crate::bounds::MAX_RADIO_MAP_GRIDS)
+}
+fn devices<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<BTreeMap<String, DeviceOffset>, D::Error> {
+    crate::bounds::json::map(d, device_offsets::MAX_DEVICES)
+}
+fn reference_ids<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<IdFile>, D::Error> {
+    crate::bounds::json::vec(d, super::reference_scans::MAX_REFERENCE_IDS)
+}
+fn reference_scans<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<ReferenceScan>, D::Error> {
+    crate::bounds::json::vec(d, super::reference_scans::MAX_REFERENCE_SCANS)
 }
 
 /// The `magnetic` section ([`MagneticMap`]): one grid per floor of the
@@ -60,6 +94,7 @@ pub struct RadioMapFile {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MagneticFile {
+    #[serde(deserialize_with = "grids")]
     pub grids: Vec<Grid>,
 }
 
@@ -70,7 +105,9 @@ pub struct ReferenceScansFile {
     #[serde(default)]
     pub config: ReferenceScanConfig,
     /// Transmitters, indexed by the scans' entries.
+    #[serde(deserialize_with = "reference_ids")]
     pub ids: Vec<IdFile>,
+    #[serde(deserialize_with = "reference_scans")]
     pub scans: Vec<ReferenceScan>,
 }
 
@@ -111,7 +148,7 @@ pub struct TxFile {
     pub samples: usize,
     #[serde(default)]
     pub walks: usize,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "grids")]
     pub grids: Vec<Grid>,
 }
 
@@ -211,13 +248,20 @@ impl RadioMap {
             let (field, msg) = crate::site::json_path::describe(text.as_bytes(), &e);
             Error::Input(format!("radio map: field `{field}`: {msg}"))
         })?;
-        Self::from_file(&file, site)
+        Self::from_file_owned(file, site)
     }
 
     /// Checks a parsed file and resolves it against `site`: every floor
     /// must be one of the site's, every number finite and in range, every
     /// grid's arrays `nx * ny` long; sizes bounded. Errors name the field.
     pub fn from_file(file: &RadioMapFile, site: &Site) -> Result<Self> {
+        Self::from_file_owned(file.clone(), site)
+    }
+
+    /// [`RadioMap::from_file`] taking the file: its grids and scans move
+    /// into the map instead of being copied (a parsed map is not held
+    /// twice).
+    pub fn from_file_owned(file: RadioMapFile, site: &Site) -> Result<Self> {
         if file.format != FORMAT {
             return bad(
                 "format".into(),
@@ -247,7 +291,7 @@ impl RadioMap {
         let mut total_cells = 0usize;
         let mut tx = Vec::with_capacity(file.transmitters.len());
         let mut entries = Vec::with_capacity(file.transmitters.len());
-        for (ti, t) in file.transmitters.iter().enumerate() {
+        for (ti, t) in file.transmitters.into_iter().enumerate() {
             let at = format!("transmitters[{ti}]");
             let kind = kind_of(t.kind);
             let id = match kind {
@@ -304,7 +348,8 @@ impl RadioMap {
                     },
                 ),
             };
-            let grids = check_grids(&at, &t.grids, &floor_ok, RSSI_RANGE, &mut total_cells)?;
+            let has_pathloss = t.pathloss.is_some();
+            let grids = check_grids(&at, t.grids, &floor_ok, RSSI_RANGE, &mut total_cells)?;
             tx.push(Transmitter {
                 id,
                 kind,
@@ -314,27 +359,27 @@ impl RadioMap {
                 model,
             });
             entries.push(MapEntry {
-                has_pathloss: t.pathloss.is_some(),
+                has_pathloss,
                 samples: t.samples,
                 walks: t.walks,
                 grids,
             });
         }
         let mut map = RadioMap::assemble(site, tx, entries, file.fallback)?;
-        if let Some(r) = &file.reference_scans {
+        if let Some(r) = file.reference_scans {
             map.set_reference_scans(reference_scans_of(r, &floor_ok)?);
         }
-        if let Some(m) = &file.magnetic {
+        if let Some(m) = file.magnetic {
             let grids = check_grids(
                 "magnetic",
-                &m.grids,
+                m.grids,
                 &floor_ok,
                 MAGNETIC_RANGE,
                 &mut total_cells,
             )?;
             map.set_magnetic(Some(MagneticMap::new(grids)));
         }
-        map.set_device_offsets(device_offsets_of(&file.device_offsets)?);
+        map.set_device_offsets(device_offsets_of(file.device_offsets)?);
         Ok(map)
     }
 }
@@ -342,7 +387,7 @@ impl RadioMap {
 /// The checked `device_offsets` section: at most
 /// [`device_offsets::MAX_DEVICES`] models with valid names and finite
 /// offsets within +-60 dB.
-fn device_offsets_of(d: &BTreeMap<String, DeviceOffset>) -> Result<device_offsets::DeviceOffsets> {
+fn device_offsets_of(d: BTreeMap<String, DeviceOffset>) -> Result<device_offsets::DeviceOffsets> {
     if d.len() > device_offsets::MAX_DEVICES {
         return bad(
             "device_offsets".into(),
@@ -353,7 +398,7 @@ fn device_offsets_of(d: &BTreeMap<String, DeviceOffset>) -> Result<device_offset
             ),
         );
     }
-    for (name, o) in d {
+    for (name, o) in &d {
         if !device_offsets::valid_name(name) {
             return bad(
                 "device_offsets".into(),
@@ -375,12 +420,12 @@ fn device_offsets_of(d: &BTreeMap<String, DeviceOffset>) -> Result<device_offset
             }
         }
     }
-    Ok(d.clone())
+    Ok(d)
 }
 
 /// The checked [`ReferenceScans`] of a file section.
 fn reference_scans_of(
-    r: &ReferenceScansFile,
+    r: ReferenceScansFile,
     floor_ok: &dyn Fn(i32) -> bool,
 ) -> Result<ReferenceScans> {
     if r.ids.len() > super::reference_scans::MAX_REFERENCE_IDS {
@@ -413,7 +458,7 @@ fn reference_scans_of(
             format!("floor {} is not in the site", r.scans[i].floor),
         );
     }
-    ReferenceScans::new(r.config, ids, r.scans.clone())
+    ReferenceScans::new(r.config, ids, r.scans)
 }
 
 /// The checked `grids` of the section at `at` (`at.grids[i]`): each by
@@ -421,13 +466,13 @@ fn reference_scans_of(
 /// `total_cells`, which may not pass [`MAX_RADIO_MAP_CELLS`].
 fn check_grids(
     at: &str,
-    grids: &[Grid],
+    grids: Vec<Grid>,
     floor_ok: &dyn Fn(i32) -> bool,
     range: (i16, i16, &str),
     total_cells: &mut usize,
 ) -> Result<Vec<Grid>> {
     let mut out: Vec<Grid> = Vec::with_capacity(grids.len());
-    for (gi, g) in grids.iter().enumerate() {
+    for (gi, g) in grids.into_iter().enumerate() {
         let at = format!("{at}.grids[{gi}]");
         *total_cells = total_cells.saturating_add(g.mean_dbm_x10.len());
         if *total_cells > MAX_RADIO_MAP_CELLS {
@@ -436,14 +481,14 @@ fn check_grids(
                 format!("the map holds over {MAX_RADIO_MAP_CELLS} cells"),
             );
         }
-        let checked = check_grid(&at, g, floor_ok, range)?;
+        check_grid(&at, &g, floor_ok, range)?;
         if out.iter().any(|o| o.floor == g.floor) {
             return bad(
                 format!("{at}.floor"),
                 format!("a second grid for floor {}", g.floor),
             );
         }
-        out.push(checked);
+        out.push(g);
     }
     Ok(out)
 }
@@ -462,7 +507,7 @@ fn check_grid(
     g: &Grid,
     floor_ok: &dyn Fn(i32) -> bool,
     (lo, hi, unit): (i16, i16, &str),
-) -> Result<Grid> {
+) -> Result<()> {
     if !floor_ok(g.floor) {
         return bad(
             format!("{at}.floor"),
@@ -535,5 +580,5 @@ fn check_grid(
             );
         }
     }
-    Ok(g.clone())
+    Ok(())
 }

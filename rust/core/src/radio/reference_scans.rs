@@ -49,9 +49,9 @@ pub const MAX_REFERENCE_SCANS: usize = 200_000;
 pub const MAX_REFERENCE_IDS: usize = 100_000;
 /// Most transmitters in one reference scan.
 pub const MAX_SCAN_TRANSMITTERS: usize = 1024;
-/// Most (transmitter, RSSI) entries over all scans (~240 MB with the
-/// query's index; ILC F1's 53 survey walks hold ~180 000).
-pub const MAX_REFERENCE_ENTRIES: usize = 10_000_000;
+/// Most (transmitter, RSSI) entries over all scans (8 bytes each, 6 more
+/// in the query's index: ~56 MB; ILC F1's 53 survey walks hold ~180 000).
+pub const MAX_REFERENCE_ENTRIES: usize = 4_000_000;
 
 /// How a query ranks and weighs the reference scans.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
@@ -148,6 +148,12 @@ impl ReferenceScanConfig {
     }
 }
 
+fn scan_entries<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> std::result::Result<Vec<(u32, i16)>, D::Error> {
+    crate::bounds::json::vec(d, MAX_SCAN_TRANSMITTERS)
+}
+
 /// One reference scan.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -156,7 +162,9 @@ pub struct ReferenceScan {
     /// The walker's position at the window's end, MCS metres.
     pub x_m: f64,
     pub y_m: f64,
-    /// (transmitter index into `ids`, mean RSSI x 10 dBm), by index.
+    /// (transmitter index into `ids`, mean RSSI x 10 dBm), by index; at
+    /// most [`MAX_SCAN_TRANSMITTERS`] (counted while parsing).
+    #[serde(deserialize_with = "scan_entries")]
     pub tx: Vec<(u32, i16)>,
 }
 

@@ -53,22 +53,6 @@ cd "$(dirname "$0")/.."
 usage="usage: route-held-out.sh build | eval|check NAME [ENGINES] [SEEDS] [EVAL ARGS...]"
 mode=${1:?$usage}
 
-# The odd half of SET scored with a survey of its even half: out/odd/SET/
-# (the same site and map as `fpbp calibrate --split even`).
-odd_dir() { echo "out/odd/$1$VARIANT"; }
-build_odd() {
-    local dir i
-    dir=$(odd_dir "$1")
-    logs_of_set "$1"
-    local -a test=() train=()
-    for i in "${!ALL[@]}"; do
-        if ((i % 2 == 0)); then train+=("${ALL[$i]}"); else test+=("${ALL[$i]}"); fi
-    done
-    mkdir -p "$dir"
-    write_split "$dir"
-    calibrate_fold "$dir"
-}
-
 if [ "$mode" = build ]; then
     [ -f out/sites/ilc-site1-F1/site.json ] ||
         "$F" import ilc "$D/ilc/site1/F1" --out out/sites/ilc-site1-F1 >/dev/null

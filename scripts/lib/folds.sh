@@ -13,7 +13,7 @@ VARIANT=${FOLDS_VARIANT:+-$FOLDS_VARIANT}
 read -r -a CALIBRATE_EXTRA <<<"${CALIBRATE_ARGS:-}"
 
 # The sorted logs of a shared set into the array ALL and its imported
-# site.json into $site: f1, f4 or ipin.
+# site.json into $site: f1, f4, ipin, f3 (ILC site1/F3) or s2f1 (site2/F1).
 logs_of_set() {
     case $1 in
     f1)
@@ -27,6 +27,14 @@ logs_of_set() {
     ipin)
         mapfile -t ALL < <(ls "$D"/ipin2023/logs/*.txt.gz | sort)
         site=out/sites/ipin2023/site.json
+        ;;
+    f3)
+        mapfile -t ALL < <(ls "$D"/ilc/site1/F3/path_data_files/*.txt.gz | sort)
+        site=out/sites/ilc-site1-F3/site.json
+        ;;
+    s2f1)
+        mapfile -t ALL < <(ls "$D"/ilc/site2/F1/path_data_files/*.txt.gz | sort)
+        site=out/sites/ilc-site2-F1/site.json
         ;;
     *) return 2 ;;
     esac
@@ -82,4 +90,22 @@ eval_fold() {
             { echo "eval failed: $out.log" >&2; exit 1; }
         echo "warning: $(basename "$out"): $(grep -m1 '^error' "$out.log")" >&2
     }
+}
+
+# odd_dir SET: the odd half of SET scored with a survey of its even half
+# (the same site and map as `fpbp calibrate --split even`).
+odd_dir() { echo "out/odd/$1$VARIANT"; }
+
+# build_odd SET: odd_dir's split, site and radio map.
+build_odd() {
+    local dir i
+    dir=$(odd_dir "$1")
+    logs_of_set "$1"
+    local -a test=() train=()
+    for i in "${!ALL[@]}"; do
+        if ((i % 2 == 0)); then train+=("${ALL[$i]}"); else test+=("${ALL[$i]}"); fi
+    done
+    mkdir -p "$dir"
+    write_split "$dir"
+    calibrate_fold "$dir"
 }

@@ -233,6 +233,15 @@ class FpbpPositioning @JvmOverloads constructor(
     /** BLE scan starts made so far (diagnostics). */
     val bleScanStarts: Int get() = core.bleScanStarts
 
+    /**
+     * The phone model's name the engine is given as its config's `device`
+     * (which phone model's offsets of a radio map apply): the one
+     * [Options.configJson] names, else [DeviceModel.canonical]; null when
+     * there is none. Record it with a log (`#meta device=`) so that `fpbp
+     * eval` of the log applies the offsets the engine did.
+     */
+    val device: String? get() = core.device
+
     /** The control thread (tests: it ends when the instance is closed or released). */
     internal val controlThread: Thread get() = core.control
 
@@ -480,6 +489,11 @@ private class PositioningCore(
 
     @Volatile var inputObserver: FpbpPositioning.InputObserver? = null
 
+    /** The engine config: the app's, with `device` = this phone's model unless it names one. */
+    private val config = configWithDevice(options.configJson, DeviceModel.canonical())
+
+    val device: String? = deviceOf(config)
+
     val bleScanStarts: Int get() = ble?.starts ?: 0
 
     fun statsJson(): String? = engine?.let { e -> runCatching { e.statsJson() }.getOrNull() }
@@ -517,7 +531,6 @@ private class PositioningCore(
         check(closing.get() == null) { "FpbpPositioning is closed" }
         if (engine != null) return@onControlAsync
         try {
-            val config = configWithDevice(options.configJson, Build.MODEL)
             val e = site.startEngine(options.engine, config, options.initialPosition)
             engine = e
             input = Executors.newSingleThreadExecutor { r -> Thread(r, "fpbp-input").apply { isDaemon = true } }
@@ -918,6 +931,13 @@ internal fun configWithDevice(configJson: String, model: String?): String {
     }
     if (o.has("device")) return configJson
     return o.put("device", name).toString()
+}
+
+/** The `device` of [configJson], null when it names none or is not a JSON object. */
+internal fun deviceOf(configJson: String): String? = try {
+    JSONObject(configJson.ifBlank { "{}" }).optString("device").ifEmpty { null }
+} catch (_: org.json.JSONException) {
+    null
 }
 
 /** The site's georef from site.json (`georef`, `map_from_enu_rad`), null without one. */

@@ -43,6 +43,8 @@ import kotlinx.coroutines.flow.callbackFlow
 import kotlinx.coroutines.flow.conflate
 import kotlinx.coroutines.future.await
 import org.json.JSONObject
+import java.util.Collections
+import java.util.WeakHashMap
 import java.util.concurrent.CompletableFuture
 import java.util.concurrent.CompletionException
 import java.util.concurrent.CopyOnWriteArrayList
@@ -241,6 +243,9 @@ class FpbpPositioning @JvmOverloads constructor(
      * eval` of the log applies the offsets the engine did.
      */
     val device: String? get() = core.device
+
+    /** Whether the sources run in foreground mode now (tests, diagnostics). */
+    internal val foregroundMode: Boolean get() = core.foregroundMode
 
     /** The control thread (tests: it ends when the instance is closed or released). */
     internal val controlThread: Thread get() = core.control
@@ -477,9 +482,8 @@ private class PositioningCore(
     private var ticker: ScheduledExecutorService? = null
     private var input: ExecutorService? = null
     private var ticks = 0
-    private var foreground = true
-    private var serviceMode = false
-    private var startedActivities = 0
+    @Volatile private var foreground = true
+    @Volatile private var serviceMode = false
     private var lifecycleRegistered = false
     private var locationReceiverRegistered = false
 
@@ -493,6 +497,8 @@ private class PositioningCore(
     private val config = configWithDevice(options.configJson, DeviceModel.canonical())
 
     val device: String? = deviceOf(config)
+
+    val foregroundMode: Boolean get() = effectiveForeground()
 
     val bleScanStarts: Int get() = ble?.starts ?: 0
 
@@ -851,26 +857,57 @@ private class PositioningCore(
     }
 
     private val mainHandler = Handler(Looper.getMainLooper())
-    private val toBackground = Runnable { if (startedActivities == 0) setForeground(false) }
+
+    /**
+     * The app's activities known to be started (between onStart and onStop),
+     * weakly. Positioning usually starts under a visible activity whose
+     * onStart came before the callbacks were registered: such an activity
+     * joins the set on its next resume or pause (a started activity is
+     * paused before it stops), so navigating from it to another activity (B
+     * starts, then it stops) keeps the foreground mode.
+     */
+    private val startedActivities: MutableSet<Activity> = Collections.newSetFromMap(WeakHashMap())
+
+    private val toBackground = Runnable {
+        if (synchronized(startedActivities) { startedActivities.isEmpty() }) setForeground(false)
+    }
+
+    private fun activityStarted(activity: Activity) {
+        val first = synchronized(startedActivities) { startedActivities.add(activity) && startedActivities.size == 1 }
+        if (first) {
+            mainHandler.removeCallbacks(toBackground)
+            setForeground(true)
+        }
+    }
+
+    private fun activityStopped(activity: Activity) {
+        val none = synchronized(startedActivities) {
+            startedActivities.remove(activity)
+            startedActivities.isEmpty()
+        }
+        // A rotation stops one activity and starts the next: wait before
+        // switching modes, so it costs no scan restart.
+        if (none) {
+            mainHandler.removeCallbacks(toBackground)
+            mainHandler.postDelayed(toBackground, FpbpPositioning.BACKGROUND_DELAY_MS)
+        }
+    }
 
     private val lifecycle = object : Application.ActivityLifecycleCallbacks {
-        override fun onActivityStarted(activity: Activity) {
-            startedActivities++
-            if (startedActivities == 1) setForeground(true)
-        }
+        override fun onActivityStarted(activity: Activity) = activityStarted(activity)
 
-        override fun onActivityStopped(activity: Activity) {
-            startedActivities = (startedActivities - 1).coerceAtLeast(0)
-            // A rotation stops one activity and starts the next: wait before
-            // switching modes, so it costs no scan restart.
-            if (startedActivities == 0) mainHandler.postDelayed(toBackground, FpbpPositioning.BACKGROUND_DELAY_MS)
-        }
+        // resumed or paused: started, maybe before positioning was
+        override fun onActivityResumed(activity: Activity) = activityStarted(activity)
+
+        override fun onActivityPaused(activity: Activity) = activityStarted(activity)
+
+        override fun onActivityStopped(activity: Activity) = activityStopped(activity)
 
         override fun onActivityCreated(activity: Activity, savedInstanceState: Bundle?) = Unit
-        override fun onActivityResumed(activity: Activity) = Unit
-        override fun onActivityPaused(activity: Activity) = Unit
         override fun onActivitySaveInstanceState(activity: Activity, outState: Bundle) = Unit
-        override fun onActivityDestroyed(activity: Activity) = Unit
+        override fun onActivityDestroyed(activity: Activity) {
+            synchronized(startedActivities) { startedActivities.remove(activity) }
+        }
     }
 
     private fun registerLifecycle() {
@@ -888,6 +925,7 @@ private class PositioningCore(
             a.unregisterActivityLifecycleCallbacks(lifecycle)
             lifecycleRegistered = false
         }
+        synchronized(startedActivities) { startedActivities.clear() }
     }
 
     /** Stops, ends the foreground service if it holds this, ends the control thread. Idempotent, never waits. */

@@ -562,8 +562,17 @@ private class PositioningCore(
 
     fun stop() = onControlAsync { teardown() }
 
-    /** Stops everything (on the control thread) and, when [publish], publishes STOPPED. */
+    /**
+     * Stops everything (on the control thread) and, when [publish], publishes
+     * STOPPED. The foreground service ends with it: it leaves the foreground,
+     * its notification is removed, and it stops.
+     */
     private fun teardown(publish: Boolean = true) {
+        if (FpbpPositioningService.attached() === this) {
+            FpbpPositioningService.release(this)
+            stopForegroundService()
+        }
+        serviceMode = false
         stopSources()
         ticker?.shutdownNow()
         ticker = null

@@ -15,6 +15,7 @@ import android.os.Handler
 import android.os.HandlerThread
 import android.os.Looper
 import android.os.SystemClock
+import android.util.Log
 import io.fpbp.BeaconFilter
 import io.fpbp.Clock
 import io.fpbp.EngineStats
@@ -55,6 +56,7 @@ import java.util.concurrent.RejectedExecutionException
 import java.util.concurrent.ScheduledExecutorService
 import java.util.concurrent.TimeUnit
 import java.util.concurrent.atomic.AtomicInteger
+import java.util.concurrent.atomic.AtomicLong
 import java.util.concurrent.atomic.AtomicReference
 
 /**
@@ -204,7 +206,10 @@ class FpbpPositioning @JvmOverloads constructor(
     /** The site's map <-> WGS-84 conversion, null when site.json has no `georef`. */
     val geo: SiteGeo? get() = core.geo
 
-    /** Observer of every input fed to the engine, or null. An observer that throws is removed. */
+    /**
+     * Observer of every input fed to the engine, or null. An observer that
+     * throws is removed (and counted in [listenerFaults]).
+     */
     var inputObserver: InputObserver?
         get() = core.inputObserver
         set(value) {
@@ -244,8 +249,20 @@ class FpbpPositioning @JvmOverloads constructor(
      */
     val device: String? get() = core.device
 
+    /**
+     * How many times a callback of the app failed so far: a pose or status
+     * listener, an [InputObserver] or a [CompletionCallback] threw, or its
+     * executor refused the delivery. Each is contained (positioning goes on,
+     * the other listeners are served); the first is logged (tag `fpbp`) and
+     * named in the status ([Problem.LISTENER_FAULT]).
+     */
+    val listenerFaults: Long get() = core.listenerFaults
+
     /** Whether the sources run in foreground mode now (tests, diagnostics). */
     internal val foregroundMode: Boolean get() = core.foregroundMode
+
+    /** Heartbeat ticks since the start (tests: the ticker is alive). */
+    internal val ticks: Int get() = core.tickCount
 
     /** The control thread (tests: it ends when the instance is closed or released). */
     internal val controlThread: Thread get() = core.control
@@ -263,7 +280,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun start(): CompletableFuture<Void?> = core.start()
 
     /** [start], then [callback] on [executor] (Java). */
-    fun start(executor: Executor, callback: CompletionCallback) = start().notify(executor, callback)
+    fun start(executor: Executor, callback: CompletionCallback) = core.notify(start(), executor, callback)
 
     /** [start], suspending until positioning runs; throws what [start]'s future completes with. */
     suspend fun awaitStart() {
@@ -274,7 +291,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun stop(): CompletableFuture<Void?> = core.stop()
 
     /** [stop], then [callback] on [executor] (Java). */
-    fun stop(executor: Executor, callback: CompletionCallback) = stop().notify(executor, callback)
+    fun stop(executor: Executor, callback: CompletionCallback) = core.notify(stop(), executor, callback)
 
     /** [stop], suspending until stopped. */
     suspend fun awaitStop() {
@@ -285,7 +302,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun pause(): CompletableFuture<Void?> = core.pause()
 
     /** [pause], then [callback] on [executor] (Java). */
-    fun pause(executor: Executor, callback: CompletionCallback) = pause().notify(executor, callback)
+    fun pause(executor: Executor, callback: CompletionCallback) = core.notify(pause(), executor, callback)
 
     /** [pause], suspending until paused. */
     suspend fun awaitPause() {
@@ -296,7 +313,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun resume(): CompletableFuture<Void?> = core.resume()
 
     /** [resume], then [callback] on [executor] (Java). */
-    fun resume(executor: Executor, callback: CompletionCallback) = resume().notify(executor, callback)
+    fun resume(executor: Executor, callback: CompletionCallback) = core.notify(resume(), executor, callback)
 
     /** [resume], suspending until resumed. */
     suspend fun awaitResume() {
@@ -434,10 +451,6 @@ class FpbpPositioning @JvmOverloads constructor(
     }
 }
 
-private fun CompletableFuture<Void?>.notify(executor: Executor, callback: FpbpPositioning.CompletionCallback) {
-    whenCompleteAsync({ _, error -> callback.onComplete(error?.let(::unwrap)) }, executor)
-}
-
 private suspend fun CompletableFuture<Void?>.awaitUnwrapped() {
     try {
         await()
@@ -449,6 +462,9 @@ private suspend fun CompletableFuture<Void?>.awaitUnwrapped() {
 private fun unwrap(t: Throwable): Throwable = if (t is CompletionException && t.cause != null) t.cause!! else t
 
 private fun describe(t: Throwable): String = "${t.javaClass.simpleName}: ${t.message}"
+
+/** The log tag of the library's Android layer. */
+private const val TAG = "fpbp"
 
 /**
  * The state and threads of one [FpbpPositioning]. Nothing in here refers to
@@ -468,7 +484,7 @@ private class PositioningCore(
 
     val control = HandlerThread("fpbp-control-${ids.incrementAndGet()}").also { it.start() }
     private val handler = Handler(control.looper)
-    val dispatcher = PoseDispatcher(clock)
+    val dispatcher = PoseDispatcher(clock) { t -> listenerFault("pose listener", t) }
     val tracker = StatusTracker(clock)
     val statusListeners = CopyOnWriteArrayList<Pair<Executor, StatusListener>>()
 
@@ -481,7 +497,7 @@ private class PositioningCore(
     private var wifi: WifiSource? = null
     private var ticker: ScheduledExecutorService? = null
     private var input: ExecutorService? = null
-    private var ticks = 0
+    @Volatile private var ticks = 0
     @Volatile private var foreground = true
     @Volatile private var serviceMode = false
     private var lifecycleRegistered = false
@@ -498,7 +514,53 @@ private class PositioningCore(
 
     val device: String? = deviceOf(config)
 
+    private val faults = AtomicLong()
+
+    val listenerFaults: Long get() = faults.get()
+
     val foregroundMode: Boolean get() = effectiveForeground()
+
+    val tickCount: Int get() = ticks
+
+    /**
+     * The app's callback [what] failed with [t] (it threw, or its executor
+     * refused it): counted, the first one logged and named in the status
+     * ([Problem.LISTENER_FAULT]). From any thread; never throws.
+     */
+    fun listenerFault(what: String, t: Throwable) {
+        if (faults.incrementAndGet() == 1L) {
+            try {
+                Log.w(TAG, "$what failed; positioning goes on (further faults are counted in listenerFaults)", t)
+            } catch (_: RuntimeException) {
+                // no log on this platform
+            }
+        }
+        if (tracker.setFirst(Problem.LISTENER_FAULT, "$what: ${describe(t)}")) handler.post { publishStatus() }
+    }
+
+    /**
+     * Runs [call] (an app's callback) on [executor]; a throw of either is a
+     * [listenerFault], never the caller's: the caller may be the control,
+     * tick, task or input thread.
+     */
+    private fun deliver(what: String, executor: Executor, call: () -> Unit) {
+        try {
+            executor.execute {
+                try {
+                    call()
+                } catch (e: Exception) {
+                    listenerFault(what, e)
+                }
+            }
+        } catch (e: Exception) {
+            listenerFault(what, e)
+        }
+    }
+
+    /** Calls [callback] on [executor] when [future] completes (the Java overloads of the lifecycle calls). */
+    fun notify(future: CompletableFuture<Void?>, executor: Executor, callback: FpbpPositioning.CompletionCallback) {
+        future.whenComplete { _, error -> deliver("completion callback", executor) { callback.onComplete(error?.let(::unwrap)) } }
+    }
 
     val bleScanStarts: Int get() = ble?.starts ?: 0
 
@@ -547,7 +609,7 @@ private class PositioningCore(
             startSources()
             ticks = 0
             ticker = Executors.newSingleThreadScheduledExecutor { r -> Thread(r, "fpbp-tick").apply { isDaemon = true } }.also {
-                it.scheduleWithFixedDelay({ tick() }, FpbpPositioning.TICK_MS, FpbpPositioning.TICK_MS, TimeUnit.MILLISECONDS)
+                it.scheduleWithFixedDelay(::tick, FpbpPositioning.TICK_MS, FpbpPositioning.TICK_MS, TimeUnit.MILLISECONDS)
             }
             publishStatus()
         } catch (t: RuntimeException) {
@@ -677,7 +739,7 @@ private class PositioningCore(
         val entry = executor to listener
         statusListeners.add(entry)
         val now = tracker.status
-        executor.execute { listener.onStatus(now) }
+        deliver("status listener", executor) { listener.onStatus(now) }
         return AutoCloseable { statusListeners.remove(entry) }
     }
 
@@ -712,9 +774,10 @@ private class PositioningCore(
         val o = inputObserver ?: return
         try {
             call(o)
-        } catch (_: RuntimeException) {
+        } catch (e: Exception) {
             // the app's observer failed: it is removed, positioning goes on
             if (inputObserver === o) inputObserver = null
+            listenerFault("input observer", e)
         }
     }
 
@@ -851,18 +914,28 @@ private class PositioningCore(
         locationReceiverRegistered = false
     }
 
+    /**
+     * The heartbeat (tick thread). It must never throw: a scheduled task that
+     * throws is never run again, and with it the heartbeat deliveries and the
+     * status checks (beacon heard, LOST) would stop silently.
+     */
     private fun tick() {
-        val pose = currentPose()
-        dispatcher.offer(pose)
-        if (++ticks % FpbpPositioning.STATUS_TICKS != 0) return
-        val stats = stats() ?: return
-        tracker.tick(stats.bleObservations - stats.unknownBeacons, pose)
-        publishStatus()
+        try {
+            val pose = currentPose()
+            dispatcher.offer(pose)
+            if (++ticks % FpbpPositioning.STATUS_TICKS != 0) return
+            val stats = stats() ?: return
+            tracker.tick(stats.bleObservations - stats.unknownBeacons, pose)
+            publishStatus()
+        } catch (e: RuntimeException) {
+            Log.e(TAG, "heartbeat failed; it goes on", e)
+        }
     }
 
+    /** The status to every status listener when it changed; any thread, never throws for a listener. */
     private fun publishStatus() {
         val s = tracker.update() ?: return
-        for ((executor, listener) in statusListeners) executor.execute { listener.onStatus(s) }
+        for ((executor, listener) in statusListeners) deliver("status listener", executor) { listener.onStatus(s) }
     }
 
     private val mainHandler = Handler(Looper.getMainLooper())

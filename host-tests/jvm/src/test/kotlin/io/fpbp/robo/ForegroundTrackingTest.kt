@@ -67,6 +67,26 @@ class ForegroundTrackingTest : OpenSitePositioningTest() {
         assertFalse(p.foregroundMode)
     }
 
+    @Test
+    fun aTranslucentActivityClosingOverTheStartingOneKeepsTheForeground() {
+        val a = Robolectric.buildActivity(Activity::class.java).setup()
+        val p = start()
+        // B over A without hiding it: A pauses (not stops), B starts and resumes
+        a.pause()
+        val b = Robolectric.buildActivity(Activity::class.java).create().start().resume()
+        settle(p)
+        assertTrue(p.foregroundMode)
+        // B closes: B pauses, A resumes, B stops; A was never seen starting
+        b.pause()
+        a.resume()
+        b.stop()
+        settle(p)
+        assertTrue("closing an activity over the starting one dropped positioning into background mode", p.foregroundMode)
+        a.pause().stop()
+        settle(p)
+        assertFalse(p.foregroundMode)
+    }
+
     /** Runs the main looper past the background delay, then waits for the control thread's work. */
     private fun settle(p: FpbpPositioning) {
         shadowOf(Looper.getMainLooper()).idleFor(Duration.ofMillis(FpbpPositioning.BACKGROUND_DELAY_MS + 500))

@@ -366,6 +366,9 @@ impl Snapshot {
             "rssi_offset_db": stats.rssi_offset_db,
             "step_scale": stats.step_scale,
             "radio_trust": stats.radio_trust,
+            // the phone model's offsets the radio map gave; null: none
+            "device_ble_offset_db": stats.device_ble_offset_db,
+            "device_wifi_offset_db": stats.device_wifi_offset_db,
         })
         .to_string()
     }

@@ -383,6 +383,8 @@ fn stats_report_the_phone_offset_the_engine_estimates() {
     // the fit check does not run, and the pull check is off)
     assert_eq!(stats["radio_trust"].as_f64(), core.radio_trust);
     assert_eq!(core.radio_trust, Some(1.0));
+    // no radio map, so no phone model's offsets
+    assert!(stats["device_ble_offset_db"].is_null() && stats["device_wifi_offset_db"].is_null());
     let other = Session::from_engine(Box::new(Recorder::default()));
     let stats: serde_json::Value =
         serde_json::from_str(&other.snapshot().stats_json()).expect("stats JSON");

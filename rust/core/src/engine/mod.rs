@@ -145,6 +145,14 @@ pub struct EngineStats {
     /// pulling the track beyond what the walk allows).
     #[serde(default)]
     pub radio_trust: Option<f64>,
+    /// The phone model's BLE offset the radio map gave the engine
+    /// (`EngineConfig::device`, subtracted from every reading), dB; `None`
+    /// when the map knows none for the model, or the engine uses none.
+    #[serde(default)]
+    pub device_ble_offset_db: Option<f64>,
+    /// The same for WiFi, dB.
+    #[serde(default)]
+    pub device_wifi_offset_db: Option<f64>,
 }
 
 /// A positioning algorithm behind the common interface.

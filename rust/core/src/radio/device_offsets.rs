@@ -96,6 +96,21 @@ pub fn from_walks(
     out.into_iter().collect()
 }
 
+/// The offsets of phone model `name` in `offsets`. Phones name their model
+/// `<manufacturer> <model>` (Android's `Build.MANUFACTURER` and
+/// `Build.MODEL`, e.g. `Google Pixel 7`: the library's `DeviceModel`);
+/// surveys recorded before that name by the library's survey recorder
+/// carry the model alone (`Pixel 7`). So: the entry of `name` itself,
+/// else, for a name of more than one word, the entry of `name` without
+/// its first word (a map calibrated from such surveys). Nothing else is
+/// tried: no case folding, no partial match.
+pub fn lookup<'a>(offsets: &'a DeviceOffsets, name: &str) -> Option<&'a DeviceOffset> {
+    offsets.get(name).or_else(|| {
+        let (_, model) = name.trim().split_once(' ')?;
+        offsets.get(model.trim_start())
+    })
+}
+
 /// Whether `name` can name a phone model: 1 to [`MAX_DEVICE_CHARS`]
 /// characters, no control characters.
 pub fn valid_name(name: &str) -> bool {
@@ -138,6 +153,32 @@ mod tests {
         let one = [Some("a".to_string()), Some("a".to_string())];
         assert!(from_walks(&one, &ble, &ble).is_empty());
         assert!(!valid_name(&"m".repeat(MAX_DEVICE_CHARS + 1)));
+    }
+
+    #[test]
+    fn a_phone_finds_its_model_and_the_model_alone_of_older_surveys() {
+        let o = |db| DeviceOffset {
+            ble_db: Some(db),
+            wifi_db: None,
+            walks: 2,
+        };
+        let map = DeviceOffsets::from([
+            ("Google Pixel 7".to_string(), o(1.0)),
+            ("SM-G930F".to_string(), o(2.0)),
+            ("Pixel 7".to_string(), o(3.0)),
+        ]);
+        let ble = |name: &str| lookup(&map, name).and_then(|d| d.of(TxKind::Ble));
+        // the whole name first, even when the model alone is there too
+        assert_eq!(ble("Google Pixel 7"), Some(1.0));
+        // a legacy entry: the model alone
+        assert_eq!(ble("samsung SM-G930F"), Some(2.0));
+        assert_eq!(ble("SM-G930F"), Some(2.0));
+        // nothing else matches
+        assert_eq!(ble("samsung SM-G930"), None);
+        assert_eq!(ble("SAMSUNG sm-g930f"), None);
+        assert_eq!(ble("Google"), None);
+        assert_eq!(ble(""), None);
+        assert_eq!(ble("Pixel"), None);
     }
 
     #[test]

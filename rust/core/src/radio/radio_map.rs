@@ -639,7 +639,7 @@ impl RadioModel for RadioMap {
     }
 
     fn device_offset_db(&self, device: &str, kind: TxKind) -> Option<f64> {
-        self.devices.get(device).and_then(|d| d.of(kind))
+        super::device_offsets::lookup(&self.devices, device).and_then(|d| d.of(kind))
     }
 
     fn transmitters(&self) -> &[Transmitter] {

@@ -52,6 +52,7 @@ impl TcpfEngine {
             TxKind::Ble => self.device_offsets_db[0],
             TxKind::Wifi => self.device_offsets_db[1],
         }
+        .unwrap_or(0.0)
     }
 
     /// One BLE reading, corrected by the phone model's offset: into the

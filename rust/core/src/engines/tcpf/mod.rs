@@ -145,8 +145,8 @@ pub struct TcpfEngine {
     /// Diagnostics of the run.
     pub counts: TcpfCounts,
     /// The phone model's offsets (BLE, WiFi) the radio map knows, dB,
-    /// subtracted from every reading (`EngineConfig::device`).
-    device_offsets_db: [f64; 2],
+    /// subtracted from every reading (`EngineConfig::device`); `None`: 0.
+    device_offsets_db: [Option<f64>; 2],
 }
 
 impl TcpfEngine {
@@ -209,7 +209,7 @@ impl TcpfEngine {
             counts: TcpfCounts::default(),
             // no map holds an empty name: "" (not known) finds nothing
             device_offsets_db: [TxKind::Ble, TxKind::Wifi]
-                .map(|k| model.device_offset_db(&config.device, k).unwrap_or(0.0)),
+                .map(|k| model.device_offset_db(&config.device, k)),
             model,
             cfg,
             site,
@@ -369,6 +369,7 @@ impl Engine for TcpfEngine {
         let mut s = self.stats.clone();
         s.rssi_offset_db = Some(self.offset.phone.mean_db());
         s.radio_trust = Some(self.integrity.trust());
+        [s.device_ble_offset_db, s.device_wifi_offset_db] = self.device_offsets_db;
         s
     }
 }

@@ -117,6 +117,15 @@ fn a_surveyed_phone_model_is_corrected_by_its_offsets() {
     );
     assert_eq!(untold, unknown);
     assert_eq!(out.stats.rssi_offset_db, Some(0.0));
+    // the stats say which offsets the engine took from the map
+    assert_eq!(
+        (
+            out.stats.device_ble_offset_db,
+            out.stats.device_wifi_offset_db
+        ),
+        (Some(-9.0), Some(4.0))
+    );
+    assert_eq!(untold_out.stats.device_ble_offset_db, None);
     assert_eq!(untold_out.track.len(), out.track.len());
     // a name that cannot name a phone model is a config error
     let cfg = EngineConfig {

@@ -26,6 +26,11 @@ package io.fpbp
  *   pulling the track beyond what the walk allows (off by default; then the
  *   accuracy radius is widened too); null for engines without one, or a library
  *   older than the field.
+ * @property deviceBleOffsetDb the phone model's BLE offset the radio map gave
+ *   the engine (its config's `device`, [io.fpbp.android.DeviceModel]), dB,
+ *   subtracted from every reading; null when the map has none for the model,
+ *   the engine uses none, or the library is older than the field.
+ * @property deviceWifiOffsetDb the same for WiFi, dB.
  */
 data class EngineStats(
     val engine: String,
@@ -41,6 +46,8 @@ data class EngineStats(
     val rssiOffsetDb: Double?,
     val stepScale: Double?,
     val radioTrust: Double? = null,
+    val deviceBleOffsetDb: Double? = null,
+    val deviceWifiOffsetDb: Double? = null,
 ) {
     companion object {
         /** Longest stats JSON [parse] reads: the bridge's is ~400 bytes. */
@@ -87,6 +94,8 @@ data class EngineStats(
                 rssiOffsetDb = optional("rssi_offset_db"),
                 stepScale = optional("step_scale"),
                 radioTrust = optional("radio_trust"),
+                deviceBleOffsetDb = optional("device_ble_offset_db"),
+                deviceWifiOffsetDb = optional("device_wifi_offset_db"),
             )
         }
     }

@@ -58,8 +58,17 @@ interface PoseSubscription {
  * ([PoseRequest]) and hands it to the listener's [Executor]. Plain JVM:
  * [offer] is called with the latest pose after every task run, after a
  * `setPosition` and on a heartbeat; [clock] is the poses' clock.
+ *
+ * [offer] never throws for a listener: an executor that refuses the
+ * delivery (`RejectedExecutionException`, or any exception from `execute`)
+ * or a listener that throws is counted in [faults] and handed to [onFault]
+ * (on the thread it happened on); the other listeners still get the pose,
+ * and that listener the next one.
  */
-class PoseDispatcher(private val clock: Clock) {
+class PoseDispatcher @JvmOverloads constructor(
+    private val clock: Clock,
+    private val onFault: ((Throwable) -> Unit)? = null,
+) {
     private inner class Sub(
         val request: PoseRequest,
         val executor: Executor,
@@ -81,6 +90,11 @@ class PoseDispatcher(private val clock: Clock) {
 
     /** Deliveries handed to executors so far (all listeners). */
     val delivered: Long get() = deliveries.get()
+
+    private val faultCount = java.util.concurrent.atomic.AtomicLong()
+
+    /** Deliveries an executor refused or a listener threw from, so far. */
+    val faults: Long get() = faultCount.get()
 
     /** Registered listeners. */
     val size: Int get() = subs.size
@@ -110,8 +124,27 @@ class PoseDispatcher(private val clock: Clock) {
             }
             if (due) {
                 deliveries.incrementAndGet()
-                s.executor.execute { if (s.active) s.listener.onPose(pose) }
+                try {
+                    s.executor.execute {
+                        try {
+                            if (s.active) s.listener.onPose(pose)
+                        } catch (e: Exception) {
+                            fault(e)
+                        }
+                    }
+                } catch (e: Exception) {
+                    fault(e)
+                }
             }
+        }
+    }
+
+    private fun fault(e: Exception) {
+        faultCount.incrementAndGet()
+        try {
+            onFault?.invoke(e)
+        } catch (_: Exception) {
+            // the report must not fail the delivery either
         }
     }
 

@@ -69,6 +69,15 @@ enum class Problem {
      * position outside the site's georef). Cleared by the next accepted one.
      */
     POSITION_REFUSED,
+
+    /**
+     * A callback of the app failed: a listener (pose, status, input
+     * observer, completion callback) threw, or its executor refused the
+     * delivery. Positioning goes on; [Status.messages] names the first such
+     * fault, `FpbpPositioning.listenerFaults` counts them all. Cleared by
+     * `stop()`.
+     */
+    LISTENER_FAULT,
 }
 
 /**
@@ -79,7 +88,8 @@ enum class Problem {
  * @property scanErrorCode the last `ScanCallback.onScanFailed` code while [Problem.SCAN_FAILED].
  * @property failure what made the state [PositioningState.FAILED] (exception class and message), else null.
  * @property messages details of the problems that carry one
- *   ([Problem.FOREGROUND_SERVICE_REFUSED], [Problem.POSITION_REFUSED]).
+ *   ([Problem.FOREGROUND_SERVICE_REFUSED], [Problem.POSITION_REFUSED],
+ *   [Problem.LISTENER_FAULT]).
  */
 data class Status(
     val state: PositioningState,
@@ -106,7 +116,7 @@ data class Status(
                 Problem.PERMISSION_MISSING -> "missing permission " + missingPermissions.joinToString(" ") { it.substringAfterLast('.') }
                 Problem.SENSOR_MISSING -> "missing sensor types $missingSensors"
                 Problem.SCAN_FAILED -> "BLE scan failed (error $scanErrorCode)"
-                Problem.FOREGROUND_SERVICE_REFUSED, Problem.POSITION_REFUSED ->
+                Problem.FOREGROUND_SERVICE_REFUSED, Problem.POSITION_REFUSED, Problem.LISTENER_FAULT ->
                     p.name.lowercase().replace('_', ' ') + (messages[p]?.let { " ($it)" } ?: "")
                 else -> p.name.lowercase().replace('_', ' ')
             }
@@ -191,6 +201,13 @@ class StatusTracker(
     @Synchronized fun set(problem: Problem, message: String?) {
         if (message != null) messages[problem] = message else messages.remove(problem)
         set(problem, message != null)
+    }
+
+    /** Sets [problem] with [message] unless it is set already; true when it was not. */
+    @Synchronized fun setFirst(problem: Problem, message: String): Boolean {
+        if (problem in problems) return false
+        set(problem, message)
+        return true
     }
 
     @Synchronized fun paused(p: Boolean) {

@@ -67,7 +67,10 @@ class MainActivity : Activity() {
     private var poseSub: PoseSubscription? = null
     private var statusSub: AutoCloseable? = null
     private var recorder: LogRecorder? = null
-    private var lastLog: File? = null
+
+    /** The last recorded log. */
+    var lastLog: File? = null
+        private set
 
     private lateinit var siteDir: File
     private var siteJson = ""
@@ -257,7 +260,8 @@ class MainActivity : Activity() {
         positioning?.setPosition(xM, yM, planView.floorId)
     }
 
-    private fun toggleRecording() {
+    /** Record log / Stop recording. */
+    fun toggleRecording() {
         val p = positioning ?: return
         val r = recorder
         if (r != null) {
@@ -272,13 +276,14 @@ class MainActivity : Activity() {
         }
         val dir = LogFileProvider.logDir(this).apply { mkdirs() }
         val name = "fpbp-" + SimpleDateFormat("yyyyMMdd-HHmmss", Locale.US).format(Date()) + ".log"
-        val meta = mapOf(
-            "device" to "${Build.MANUFACTURER} ${Build.MODEL}",
+        // the phone model the engine was given, so that `fpbp eval` applies its offsets as the engine did
+        val meta = listOfNotNull(
+            p.device?.let { "device" to it },
             "android_api" to Build.VERSION.SDK_INT.toString(),
             "site" to JSONObject(siteJson).optString("name"),
             "engine" to ENGINE,
             "app" to "io.fpbp.sample",
-        )
+        ).toMap()
         recorder = LogRecorder(File(dir, name), meta).also { p.inputObserver = it }
         recordButton.text = "Stop recording"
     }

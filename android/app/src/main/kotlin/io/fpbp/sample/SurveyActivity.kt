@@ -209,8 +209,8 @@ class SurveyActivity : Activity() {
         }
         val dir = LogFileProvider.logDir(this).apply { mkdirs() }
         val name = "survey-" + SimpleDateFormat("yyyyMMdd-HHmmss", Locale.US).format(Date()) + ".log"
+        // FpbpSurvey adds `device` (DeviceModel.canonical(): the name the engine is given)
         val meta = mapOf(
-            "device" to "${Build.MANUFACTURER} ${Build.MODEL}",
             "android_api" to Build.VERSION.SDK_INT.toString(),
             "site" to JSONObject(siteJson).optString("name"),
             "kind" to "survey",

@@ -15,6 +15,7 @@ import android.os.Handler
 import android.os.HandlerThread
 import android.os.Looper
 import android.os.SystemClock
+import android.util.Log
 import io.fpbp.BeaconFilter
 import io.fpbp.Clock
 import io.fpbp.EngineStats
@@ -43,6 +44,8 @@ import kotlinx.coroutines.flow.callbackFlow
 import kotlinx.coroutines.flow.conflate
 import kotlinx.coroutines.future.await
 import org.json.JSONObject
+import java.util.Collections
+import java.util.WeakHashMap
 import java.util.concurrent.CompletableFuture
 import java.util.concurrent.CompletionException
 import java.util.concurrent.CopyOnWriteArrayList
@@ -53,6 +56,7 @@ import java.util.concurrent.RejectedExecutionException
 import java.util.concurrent.ScheduledExecutorService
 import java.util.concurrent.TimeUnit
 import java.util.concurrent.atomic.AtomicInteger
+import java.util.concurrent.atomic.AtomicLong
 import java.util.concurrent.atomic.AtomicReference
 
 /**
@@ -202,7 +206,10 @@ class FpbpPositioning @JvmOverloads constructor(
     /** The site's map <-> WGS-84 conversion, null when site.json has no `georef`. */
     val geo: SiteGeo? get() = core.geo
 
-    /** Observer of every input fed to the engine, or null. An observer that throws is removed. */
+    /**
+     * Observer of every input fed to the engine, or null. An observer that
+     * throws is removed (and counted in [listenerFaults]).
+     */
     var inputObserver: InputObserver?
         get() = core.inputObserver
         set(value) {
@@ -233,6 +240,30 @@ class FpbpPositioning @JvmOverloads constructor(
     /** BLE scan starts made so far (diagnostics). */
     val bleScanStarts: Int get() = core.bleScanStarts
 
+    /**
+     * The phone model's name the engine is given as its config's `device`
+     * (which phone model's offsets of a radio map apply): the one
+     * [Options.configJson] names, else [DeviceModel.canonical]; null when
+     * there is none. Record it with a log (`#meta device=`) so that `fpbp
+     * eval` of the log applies the offsets the engine did.
+     */
+    val device: String? get() = core.device
+
+    /**
+     * How many times a callback of the app failed so far: a pose or status
+     * listener, an [InputObserver] or a [CompletionCallback] threw, or its
+     * executor refused the delivery. Each is contained (positioning goes on,
+     * the other listeners are served); the first is logged (tag `fpbp`) and
+     * named in the status ([Problem.LISTENER_FAULT]).
+     */
+    val listenerFaults: Long get() = core.listenerFaults
+
+    /** Whether the sources run in foreground mode now (tests, diagnostics). */
+    internal val foregroundMode: Boolean get() = core.foregroundMode
+
+    /** Heartbeat ticks since the start (tests: the ticker is alive). */
+    internal val ticks: Int get() = core.tickCount
+
     /** The control thread (tests: it ends when the instance is closed or released). */
     internal val controlThread: Thread get() = core.control
 
@@ -249,7 +280,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun start(): CompletableFuture<Void?> = core.start()
 
     /** [start], then [callback] on [executor] (Java). */
-    fun start(executor: Executor, callback: CompletionCallback) = start().notify(executor, callback)
+    fun start(executor: Executor, callback: CompletionCallback) = core.notify(start(), executor, callback)
 
     /** [start], suspending until positioning runs; throws what [start]'s future completes with. */
     suspend fun awaitStart() {
@@ -260,7 +291,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun stop(): CompletableFuture<Void?> = core.stop()
 
     /** [stop], then [callback] on [executor] (Java). */
-    fun stop(executor: Executor, callback: CompletionCallback) = stop().notify(executor, callback)
+    fun stop(executor: Executor, callback: CompletionCallback) = core.notify(stop(), executor, callback)
 
     /** [stop], suspending until stopped. */
     suspend fun awaitStop() {
@@ -271,7 +302,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun pause(): CompletableFuture<Void?> = core.pause()
 
     /** [pause], then [callback] on [executor] (Java). */
-    fun pause(executor: Executor, callback: CompletionCallback) = pause().notify(executor, callback)
+    fun pause(executor: Executor, callback: CompletionCallback) = core.notify(pause(), executor, callback)
 
     /** [pause], suspending until paused. */
     suspend fun awaitPause() {
@@ -282,7 +313,7 @@ class FpbpPositioning @JvmOverloads constructor(
     fun resume(): CompletableFuture<Void?> = core.resume()
 
     /** [resume], then [callback] on [executor] (Java). */
-    fun resume(executor: Executor, callback: CompletionCallback) = resume().notify(executor, callback)
+    fun resume(executor: Executor, callback: CompletionCallback) = core.notify(resume(), executor, callback)
 
     /** [resume], suspending until resumed. */
     suspend fun awaitResume() {
@@ -420,10 +451,6 @@ class FpbpPositioning @JvmOverloads constructor(
     }
 }
 
-private fun CompletableFuture<Void?>.notify(executor: Executor, callback: FpbpPositioning.CompletionCallback) {
-    whenCompleteAsync({ _, error -> callback.onComplete(error?.let(::unwrap)) }, executor)
-}
-
 private suspend fun CompletableFuture<Void?>.awaitUnwrapped() {
     try {
         await()
@@ -435,6 +462,9 @@ private suspend fun CompletableFuture<Void?>.awaitUnwrapped() {
 private fun unwrap(t: Throwable): Throwable = if (t is CompletionException && t.cause != null) t.cause!! else t
 
 private fun describe(t: Throwable): String = "${t.javaClass.simpleName}: ${t.message}"
+
+/** The log tag of the library's Android layer. */
+private const val TAG = "fpbp"
 
 /**
  * The state and threads of one [FpbpPositioning]. Nothing in here refers to
@@ -454,7 +484,7 @@ private class PositioningCore(
 
     val control = HandlerThread("fpbp-control-${ids.incrementAndGet()}").also { it.start() }
     private val handler = Handler(control.looper)
-    val dispatcher = PoseDispatcher(clock)
+    val dispatcher = PoseDispatcher(clock) { t -> listenerFault("pose listener", t) }
     val tracker = StatusTracker(clock)
     val statusListeners = CopyOnWriteArrayList<Pair<Executor, StatusListener>>()
 
@@ -467,10 +497,9 @@ private class PositioningCore(
     private var wifi: WifiSource? = null
     private var ticker: ScheduledExecutorService? = null
     private var input: ExecutorService? = null
-    private var ticks = 0
-    private var foreground = true
-    private var serviceMode = false
-    private var startedActivities = 0
+    @Volatile private var ticks = 0
+    @Volatile private var foreground = true
+    @Volatile private var serviceMode = false
     private var lifecycleRegistered = false
     private var locationReceiverRegistered = false
 
@@ -479,6 +508,59 @@ private class PositioningCore(
     private val closing = AtomicReference<CompletableFuture<Void?>?>(null)
 
     @Volatile var inputObserver: FpbpPositioning.InputObserver? = null
+
+    /** The engine config: the app's, with `device` = this phone's model unless it names one. */
+    private val config = configWithDevice(options.configJson, DeviceModel.canonical())
+
+    val device: String? = deviceOf(config)
+
+    private val faults = AtomicLong()
+
+    val listenerFaults: Long get() = faults.get()
+
+    val foregroundMode: Boolean get() = effectiveForeground()
+
+    val tickCount: Int get() = ticks
+
+    /**
+     * The app's callback [what] failed with [t] (it threw, or its executor
+     * refused it): counted, the first one logged and named in the status
+     * ([Problem.LISTENER_FAULT]). From any thread; never throws.
+     */
+    fun listenerFault(what: String, t: Throwable) {
+        if (faults.incrementAndGet() == 1L) {
+            try {
+                Log.w(TAG, "$what failed; positioning goes on (further faults are counted in listenerFaults)", t)
+            } catch (_: RuntimeException) {
+                // no log on this platform
+            }
+        }
+        if (tracker.setFirst(Problem.LISTENER_FAULT, "$what: ${describe(t)}")) handler.post { publishStatus() }
+    }
+
+    /**
+     * Runs [call] (an app's callback) on [executor]; a throw of either is a
+     * [listenerFault], never the caller's: the caller may be the control,
+     * tick, task or input thread.
+     */
+    private fun deliver(what: String, executor: Executor, call: () -> Unit) {
+        try {
+            executor.execute {
+                try {
+                    call()
+                } catch (e: Exception) {
+                    listenerFault(what, e)
+                }
+            }
+        } catch (e: Exception) {
+            listenerFault(what, e)
+        }
+    }
+
+    /** Calls [callback] on [executor] when [future] completes (the Java overloads of the lifecycle calls). */
+    fun notify(future: CompletableFuture<Void?>, executor: Executor, callback: FpbpPositioning.CompletionCallback) {
+        future.whenComplete { _, error -> deliver("completion callback", executor) { callback.onComplete(error?.let(::unwrap)) } }
+    }
 
     val bleScanStarts: Int get() = ble?.starts ?: 0
 
@@ -517,7 +599,6 @@ private class PositioningCore(
         check(closing.get() == null) { "FpbpPositioning is closed" }
         if (engine != null) return@onControlAsync
         try {
-            val config = configWithDevice(options.configJson, Build.MODEL)
             val e = site.startEngine(options.engine, config, options.initialPosition)
             engine = e
             input = Executors.newSingleThreadExecutor { r -> Thread(r, "fpbp-input").apply { isDaemon = true } }
@@ -528,7 +609,7 @@ private class PositioningCore(
             startSources()
             ticks = 0
             ticker = Executors.newSingleThreadScheduledExecutor { r -> Thread(r, "fpbp-tick").apply { isDaemon = true } }.also {
-                it.scheduleWithFixedDelay({ tick() }, FpbpPositioning.TICK_MS, FpbpPositioning.TICK_MS, TimeUnit.MILLISECONDS)
+                it.scheduleWithFixedDelay(::tick, FpbpPositioning.TICK_MS, FpbpPositioning.TICK_MS, TimeUnit.MILLISECONDS)
             }
             publishStatus()
         } catch (t: RuntimeException) {
@@ -543,8 +624,17 @@ private class PositioningCore(
 
     fun stop() = onControlAsync { teardown() }
 
-    /** Stops everything (on the control thread) and, when [publish], publishes STOPPED. */
+    /**
+     * Stops everything (on the control thread) and, when [publish], publishes
+     * STOPPED. The foreground service ends with it: it leaves the foreground,
+     * its notification is removed, and it stops.
+     */
     private fun teardown(publish: Boolean = true) {
+        if (FpbpPositioningService.attached() === this) {
+            FpbpPositioningService.release(this)
+            stopForegroundService()
+        }
+        serviceMode = false
         stopSources()
         ticker?.shutdownNow()
         ticker = null
@@ -649,7 +739,7 @@ private class PositioningCore(
         val entry = executor to listener
         statusListeners.add(entry)
         val now = tracker.status
-        executor.execute { listener.onStatus(now) }
+        deliver("status listener", executor) { listener.onStatus(now) }
         return AutoCloseable { statusListeners.remove(entry) }
     }
 
@@ -684,9 +774,10 @@ private class PositioningCore(
         val o = inputObserver ?: return
         try {
             call(o)
-        } catch (_: RuntimeException) {
+        } catch (e: Exception) {
             // the app's observer failed: it is removed, positioning goes on
             if (inputObserver === o) inputObserver = null
+            listenerFault("input observer", e)
         }
     }
 
@@ -823,41 +914,82 @@ private class PositioningCore(
         locationReceiverRegistered = false
     }
 
+    /**
+     * The heartbeat (tick thread). It must never throw: a scheduled task that
+     * throws is never run again, and with it the heartbeat deliveries and the
+     * status checks (beacon heard, LOST) would stop silently.
+     */
     private fun tick() {
-        val pose = currentPose()
-        dispatcher.offer(pose)
-        if (++ticks % FpbpPositioning.STATUS_TICKS != 0) return
-        val stats = stats() ?: return
-        tracker.tick(stats.bleObservations - stats.unknownBeacons, pose)
-        publishStatus()
+        try {
+            val pose = currentPose()
+            dispatcher.offer(pose)
+            if (++ticks % FpbpPositioning.STATUS_TICKS != 0) return
+            val stats = stats() ?: return
+            tracker.tick(stats.bleObservations - stats.unknownBeacons, pose)
+            publishStatus()
+        } catch (e: RuntimeException) {
+            Log.e(TAG, "heartbeat failed; it goes on", e)
+        }
     }
 
+    /** The status to every status listener when it changed; any thread, never throws for a listener. */
     private fun publishStatus() {
         val s = tracker.update() ?: return
-        for ((executor, listener) in statusListeners) executor.execute { listener.onStatus(s) }
+        for ((executor, listener) in statusListeners) deliver("status listener", executor) { listener.onStatus(s) }
     }
 
     private val mainHandler = Handler(Looper.getMainLooper())
-    private val toBackground = Runnable { if (startedActivities == 0) setForeground(false) }
+
+    /**
+     * The app's activities known to be started (between onStart and onStop),
+     * weakly. Positioning usually starts under a visible activity whose
+     * onStart came before the callbacks were registered: such an activity
+     * joins the set on its next resume or pause (a started activity is
+     * paused before it stops), so navigating from it to another activity (B
+     * starts, then it stops) keeps the foreground mode.
+     */
+    private val startedActivities: MutableSet<Activity> = Collections.newSetFromMap(WeakHashMap())
+
+    private val toBackground = Runnable {
+        if (synchronized(startedActivities) { startedActivities.isEmpty() }) setForeground(false)
+    }
+
+    private fun activityStarted(activity: Activity) {
+        val first = synchronized(startedActivities) { startedActivities.add(activity) && startedActivities.size == 1 }
+        if (first) {
+            mainHandler.removeCallbacks(toBackground)
+            setForeground(true)
+        }
+    }
+
+    private fun activityStopped(activity: Activity) {
+        val none = synchronized(startedActivities) {
+            startedActivities.remove(activity)
+            startedActivities.isEmpty()
+        }
+        // A rotation stops one activity and starts the next: wait before
+        // switching modes, so it costs no scan restart.
+        if (none) {
+            mainHandler.removeCallbacks(toBackground)
+            mainHandler.postDelayed(toBackground, FpbpPositioning.BACKGROUND_DELAY_MS)
+        }
+    }
 
     private val lifecycle = object : Application.ActivityLifecycleCallbacks {
-        override fun onActivityStarted(activity: Activity) {
-            startedActivities++
-            if (startedActivities == 1) setForeground(true)
-        }
+        override fun onActivityStarted(activity: Activity) = activityStarted(activity)
 
-        override fun onActivityStopped(activity: Activity) {
-            startedActivities = (startedActivities - 1).coerceAtLeast(0)
-            // A rotation stops one activity and starts the next: wait before
-            // switching modes, so it costs no scan restart.
-            if (startedActivities == 0) mainHandler.postDelayed(toBackground, FpbpPositioning.BACKGROUND_DELAY_MS)
-        }
+        // resumed or paused: started, maybe before positioning was
+        override fun onActivityResumed(activity: Activity) = activityStarted(activity)
+
+        override fun onActivityPaused(activity: Activity) = activityStarted(activity)
+
+        override fun onActivityStopped(activity: Activity) = activityStopped(activity)
 
         override fun onActivityCreated(activity: Activity, savedInstanceState: Bundle?) = Unit
-        override fun onActivityResumed(activity: Activity) = Unit
-        override fun onActivityPaused(activity: Activity) = Unit
         override fun onActivitySaveInstanceState(activity: Activity, outState: Bundle) = Unit
-        override fun onActivityDestroyed(activity: Activity) = Unit
+        override fun onActivityDestroyed(activity: Activity) {
+            synchronized(startedActivities) { startedActivities.remove(activity) }
+        }
     }
 
     private fun registerLifecycle() {
@@ -875,6 +1007,7 @@ private class PositioningCore(
             a.unregisterActivityLifecycleCallbacks(lifecycle)
             lifecycleRegistered = false
         }
+        synchronized(startedActivities) { startedActivities.clear() }
     }
 
     /** Stops, ends the foreground service if it holds this, ends the control thread. Idempotent, never waits. */
@@ -918,6 +1051,13 @@ internal fun configWithDevice(configJson: String, model: String?): String {
     }
     if (o.has("device")) return configJson
     return o.put("device", name).toString()
+}
+
+/** The `device` of [configJson], null when it names none or is not a JSON object. */
+internal fun deviceOf(configJson: String): String? = try {
+    JSONObject(configJson.ifBlank { "{}" }).optString("device").ifEmpty { null }
+} catch (_: org.json.JSONException) {
+    null
 }
 
 /** The site's georef from site.json (`georef`, `map_from_enu_rad`), null without one. */

@@ -8,7 +8,9 @@ import android.content.Intent
 import android.content.pm.PackageManager
 import android.content.pm.ServiceInfo
 import android.os.Build
+import android.os.Handler
 import android.os.IBinder
+import android.os.Looper
 import io.fpbp.RadioPermissions
 import java.lang.ref.WeakReference
 
@@ -36,7 +38,10 @@ internal interface ForegroundClient {
  * `startForeground` (`ForegroundServiceStartNotAllowedException` on 12+ from
  * the background, SecurityException on 14+ without the permission) is caught
  * and reported the same way ([io.fpbp.Problem.FOREGROUND_SERVICE_REFUSED]).
- * Holds the positioning weakly: the app owns it.
+ * Holds the positioning weakly: the app owns it. It ends with the
+ * positioning it serves: `stop()`, `close()` or an engine failure removes
+ * its notification and stops it, and a start command that arrives after
+ * that enters the foreground (the contract) and stops at once.
  */
 class FpbpPositioningService : Service() {
     companion object {
@@ -59,6 +64,20 @@ class FpbpPositioningService : Service() {
         }
 
         internal fun attached(): ForegroundClient? = target?.get()
+
+        /** The service in the foreground now, if any. */
+        @Volatile private var running: WeakReference<FpbpPositioningService>? = null
+
+        /**
+         * [p] stopped: it is detached, and the running service leaves the
+         * foreground, removes its notification and stops (on the main thread).
+         */
+        internal fun release(p: ForegroundClient) {
+            if (attached() !== p) return
+            target = null
+            val s = running?.get() ?: return
+            Handler(Looper.getMainLooper()).post { s.end() }
+        }
 
         /** Whether a service instance is in the foreground now (tests, diagnostics). */
         @Volatile
@@ -93,9 +112,25 @@ class FpbpPositioningService : Service() {
             stopSelf(startId)
             return START_NOT_STICKY
         }
+        val client = attached()
+        if (client == null) {
+            // the positioning stopped before this command arrived: nothing to keep alive
+            removeForeground()
+            stopSelf(startId)
+            return START_NOT_STICKY
+        }
+        running = WeakReference(this)
         isForeground = true
-        attached()?.setServiceMode(true)
+        client.setServiceMode(true)
         return START_NOT_STICKY
+    }
+
+    /** Leaves the foreground (notification removed) and stops: the positioning it served stopped. */
+    private fun end() {
+        if (running?.get() === this) running = null
+        isForeground = false
+        removeForeground()
+        stopSelf()
     }
 
     private fun removeForeground() {
@@ -103,6 +138,7 @@ class FpbpPositioningService : Service() {
     }
 
     override fun onDestroy() {
+        if (running?.get() === this) running = null
         attached()?.setServiceMode(false)
         isForeground = false
         removeForeground()

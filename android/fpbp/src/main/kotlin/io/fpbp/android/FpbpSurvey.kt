@@ -1,7 +1,6 @@
 package io.fpbp.android
 
 import android.content.Context
-import android.os.Build
 import android.os.Handler
 import android.os.HandlerThread
 import android.os.Looper
@@ -114,15 +113,16 @@ class FpbpSurvey @JvmOverloads constructor(
 
     /**
      * Starts recording into [out] (created or truncated) with [meta] as
-     * `#meta` lines, and `device` = the phone model unless [meta] names one
+     * `#meta` lines, and `device` = the phone model ([DeviceModel.canonical],
+     * the name the positioning gives the engine) unless [meta] names one
      * (`fpbp calibrate` learns each surveyed model's offsets from it).
      */
     @JvmOverloads
     fun start(out: File, meta: Map<String, String> = emptyMap()) = onControlSync {
         check(!closed) { "FpbpSurvey is closed" }
         check(writer == null) { "a survey is already being recorded into $file" }
-        val model = Build.MODEL?.filterNot { it.isISOControl() }?.trim()?.take(64)
-        val withDevice = if ("device" in meta || model.isNullOrEmpty()) meta else meta + ("device" to model)
+        val model = DeviceModel.canonical()
+        val withDevice = if ("device" in meta || model == null) meta else meta + ("device" to model)
         val w = SurveyLogWriter(out.bufferedWriter(bufferSize = 64 * 1024), withDevice)
         val exec = ThreadPoolExecutor(
             1, 1, 0L, TimeUnit.MILLISECONDS, ArrayBlockingQueue(options.queueCapacity),

@@ -264,8 +264,9 @@ class SurveyRecordingTest {
         val log = file.bufferedReader().use { NativeLogReader.read(it) }
         assertEquals(2, log.version)
         assertEquals("fpbp-survey", log.meta["recorder"])
-        // the phone model, for `fpbp calibrate`'s per-model offsets
-        assertEquals(android.os.Build.MODEL, log.meta["device"])
+        // the phone model, for `fpbp calibrate`'s per-model offsets: the name the engine is given
+        assertEquals(io.fpbp.android.DeviceModel.canonical(), log.meta["device"])
+        assertTrue(log.meta["device"]!!, log.meta["device"]!!.endsWith(android.os.Build.MODEL))
         val ev = log.events
         val byKind = ev.filterIsInstance<LogEvent.Sensor>().groupingBy { NativeLog.kindOf(it.sensorType)!! }.eachCount().toSortedMap()
         assertEquals("sensor samples per kind", fed.byKind, byKind)

@@ -18,9 +18,11 @@
 #
 # Usage (repository root, after `cargo build --release -p fpbp-cli` and
 # `scripts/route-held-out.sh build`):
-#   scripts/error-budget.sh [SEEDS]        (SEEDS default 1-5)
-# Writes out/budget/budget.md (the tables) and out/budget/error-budget.svg
-# (the plot); docs/tcpf.md carries a copy of both.
+#   scripts/error-budget.sh [SEEDS]        (SEEDS default 1-5; ~6 min on 2 cores)
+#   TABLES=1 scripts/error-budget.sh      the tables and plots of the last run
+# Writes out/budget/budget.md (the tables) and out/budget/error-budget-*.svg
+# (the plots); docs/tcpf.md "Error budget" carries a copy of both (the
+# plots in docs/img/).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 . scripts/lib/folds.sh
@@ -28,6 +30,8 @@ seeds=${1:-1-5}
 out=out/budget
 mkdir -p "$out"
 
+# TABLES=1: only the tables and plots of the last run
+if [ "${TABLES:-0}" != 1 ]; then
 # the new floors and the oracle maps
 for s in f3 s2f1; do
     case $s in f3) src=site1/F3 dst=ilc-site1-F3 ;; s2f1) src=site2/F1 dst=ilc-site2-F1 ;; esac
@@ -64,6 +68,7 @@ for s in ipin f1 f3 s2f1; do
     eval_fold "$(odd_dir $s)" "$(odd_dir $s)-eval/budget-throttled/odd" tcpf "$seeds" --init truth \
         --radios ble,wifi-throttled
 done
+fi
 
 # the tables
 P=out/protocol
@@ -82,9 +87,17 @@ for start in own truth; do
     add "ILC F1 coverage B (surveyed)" "$start" out/coverage/f1-eval/budget-$start "B-*" $e
     add "IPIN odd (surveyed)" "$start" "$(odd_dir ipin)-eval/budget-$start" odd $e
     add "ILC F1 odd (surveyed)" "$start" "$(odd_dir f1)-eval/budget-$start" odd $e
-    [ $start = own ] && e=tcpf,scan-knn,pdr
-    add "ILC site1/F3 odd (new floor)" "$start" "$(odd_dir f3)-eval/budget-$start" odd $e
-    add "ILC site2/F1 odd (new floor)" "$start" "$(odd_dir s2f1)-eval/budget-$start" odd $e
+    # pdr (always from the known start) ran beside the own start here
+    for s in f3 s2f1; do
+        l="ILC site1/F3 odd (new floor)"
+        [ $s = s2f1 ] && l="ILC site2/F1 odd (new floor)"
+        if [ $start = own ]; then
+            add "$l" own "$(odd_dir $s)-eval/budget-own" odd tcpf,scan-knn
+        else
+            add "$l" truth "$(odd_dir $s)-eval/budget-truth" odd tcpf
+            add "$l" truth "$(odd_dir $s)-eval/budget-own" odd pdr
+        fi
+    done
 done
 oracle=()
 for s in ipin f1 f3 s2f1; do
@@ -99,7 +112,7 @@ done
 {
     echo "## Error by time since start (engine seeds $seeds)"
     echo
-    python3 scripts/lib/time_bins.py --svg "$out/error-budget.svg" "${rows[@]}"
+    python3 scripts/lib/time_bins.py "${rows[@]}"
     echo
     echo "## Oracles and the phone's WiFi"
     echo
@@ -109,3 +122,15 @@ done
     echo
     python3 scripts/lib/time_bins.py --autocorr scan-knn "${knn[@]}"
 } | tee "$out/budget.md"
+# the plots: a route the survey never walked, and a floor no default was
+# tuned on with every variant
+python3 scripts/lib/time_bins.py --svg "$out/error-budget-ipin-t-a.svg" \
+    "IPIN T-A|own|out/folds/ipin-eval/budget-own|*-A|tcpf,scan-knn" \
+    "IPIN T-A|known|out/folds/ipin-eval/budget-truth|*-A|tcpf,pdr" >/dev/null
+n="$(odd_dir s2f1)-eval"
+python3 scripts/lib/time_bins.py --svg "$out/error-budget-site2-f1.svg" \
+    "site2/F1|own|$n/budget-own|odd|tcpf,scan-knn" "site2/F1|known|$n/budget-truth|odd|tcpf" \
+    "site2/F1|known|$n/budget-own|odd|pdr" \
+    "site2/F1|oracle map, own|out/oracle/s2f1-eval|own|tcpf" \
+    "site2/F1|oracle map, known|out/oracle/s2f1-eval|truth|tcpf" \
+    "site2/F1|phone WiFi, known|$n/budget-throttled|odd|tcpf" >/dev/null

@@ -23,6 +23,7 @@ pub mod kalman;
 pub mod map;
 pub mod pdr;
 pub mod radio;
+pub mod radio_id;
 pub mod simd;
 pub mod site;
 pub mod stats;

@@ -155,6 +155,16 @@ pub struct Site {
 }
 
 impl Site {
+    /// Each floor's id and height (m), in the site file's order: what a
+    /// [`crate::floor::FloorTracker`] is built over.
+    pub fn floor_heights(&self) -> Vec<(i32, f64)> {
+        self.spec
+            .floors
+            .iter()
+            .map(|f| (f.id, f.height_m))
+            .collect()
+    }
+
     /// The map of floor `id`, if the site has it.
     pub fn floor(&self, id: i32) -> Option<&FloorMap> {
         self.spec
@@ -344,7 +354,7 @@ impl SiteSpec {
         self.validate_transmitters(file, "beacons", &self.beacons)?;
         self.validate_transmitters(file, "access_points", &self.access_points)?;
         for (k, a) in self.access_points.iter().enumerate() {
-            if !crate::ble::beacon_id::is_bssid(&a.id) {
+            if !crate::radio_id::is_bssid(&a.id) {
                 return Err(site_err(
                     file,
                     format!("access_points[{k}].id"),

@@ -33,9 +33,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::beacon_id::normalize_beacon_id;
 use super::config::{BleConfig, CalibrationConfig};
 use crate::events::{BleObservation, TruthPoint};
+use crate::radio_id::normalize_beacon_id;
 use crate::site::{BeaconSpec, SiteSpec};
 use crate::{Error, Result, Vec2};
 

@@ -10,7 +10,6 @@
 //! floored at `min_distance_m`; see [`pathloss`].
 
 pub mod baselines;
-pub mod beacon_id;
 pub mod calibrate;
 pub mod config;
 pub mod frontend;
@@ -28,7 +27,7 @@ pub mod registry;
 pub mod rssi_bias;
 pub mod task;
 
-pub use beacon_id::{BeaconId, normalize_beacon_id};
+pub use crate::radio_id::{BeaconId, normalize_beacon_id};
 pub use config::{
     BleConfig, CalibrationConfig, FrbwConfig, GmlConfig, KalmanConfig, MlConfig, TrilatConfig,
     WeightedCentroidConfig,

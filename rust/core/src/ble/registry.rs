@@ -4,9 +4,9 @@
 
 use std::collections::BTreeMap;
 
-use super::beacon_id::normalize_beacon_id;
 use super::pathloss::PathLoss;
 use crate::Vec2;
+use crate::radio_id::normalize_beacon_id;
 use crate::site::BeaconSpec;
 
 /// One registered beacon.

@@ -54,9 +54,9 @@ impl BleTask {
             }
         }
         let mut task = Self::with_parts(cfg, BleFrontEnd::new(cfg, site), kind.build(cfg), grids);
-        task.floors = cfg
-            .floor_tracker
-            .then(|| crate::floor::FloorTracker::for_site(&cfg.floor, site, site.default_floor()));
+        task.floors = cfg.floor_tracker.then(|| {
+            crate::floor::FloorTracker::new(&cfg.floor, &site.floor_heights(), site.default_floor())
+        });
         task
     }
 

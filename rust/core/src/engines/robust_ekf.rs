@@ -102,7 +102,7 @@ impl RobustEkfEngine {
         config.validate()?;
         let front = BleFrontEnd::new(&config.ble, &site);
         let start_floor = init.map_or(site.default_floor(), |i| i.floor);
-        let floors = FloorTracker::for_site(&config.ekf.floor, &site, start_floor);
+        let floors = FloorTracker::new(&config.ekf.floor, &site.floor_heights(), start_floor);
         let mut x = DVector::zeros(4);
         let mut p = DMatrix::identity(4, 4) * 100.0;
         let mut initialised = false;

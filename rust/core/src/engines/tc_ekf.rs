@@ -74,7 +74,7 @@ impl TcEkfEngine {
         config.validate()?;
         let front = BleFrontEnd::new(&config.ble, &site);
         let start_floor = init.map_or(site.default_floor(), |i| i.floor);
-        let floors = FloorTracker::for_site(&config.ekf.floor, &site, start_floor);
+        let floors = FloorTracker::new(&config.ekf.floor, &site.floor_heights(), start_floor);
         let mut x = DVector::zeros(5);
         let mut p = DMatrix::zeros(5, 5);
         p[(0, 0)] = 100.0;

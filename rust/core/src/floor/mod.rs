@@ -372,17 +372,6 @@ impl FloorTracker {
         }
     }
 
-    /// A tracker over the floors of a site.
-    pub fn for_site(cfg: &FloorConfig, site: &crate::site::Site, start_floor: i32) -> Self {
-        let floors: Vec<(i32, f64)> = site
-            .spec
-            .floors
-            .iter()
-            .map(|f| (f.id, f.height_m))
-            .collect();
-        Self::new(cfg, &floors, start_floor)
-    }
-
     fn floor_height(&self, floor: i32) -> Option<f64> {
         self.floors.iter().find(|(id, _)| *id == floor).map(|f| f.1)
     }

@@ -5,7 +5,7 @@
 //!
 //! Operations that do not depend on a model: weight normalisation, the
 //! effective sample size, resampling (systematic or stratified; copies
-//! take their columns along), estimates (weighted mean, geometric median,
+//! take their columns along), estimates (weighted mean,
 //! spread), shifting, replacing invalid particles, Gaussian injection and
 //! log-likelihood weighting. Random draws come from the caller's RNG in a
 //! fixed order.

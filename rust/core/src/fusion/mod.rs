@@ -5,7 +5,7 @@
 //! The generic particle filter:
 //! - [`cloud`]: the particle set ([`Cloud`]): positions, weights and
 //!   per-particle state columns; normalisation, ESS, resampling, estimates
-//!   (mean, geometric median, spread), shift, replacement, injection,
+//!   (mean, spread), shift, replacement, injection,
 //!   log-likelihood weights.
 //! - [`model`]: the traits [`MotionModel`] (moves the cloud for one
 //!   control input, drawing from the filter's RNG) and [`MeasurementModel`]

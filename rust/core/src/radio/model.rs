@@ -5,8 +5,8 @@ use std::collections::BTreeMap;
 
 use super::fast_ln::ln_normal;
 use crate::Vec2;
-use crate::ble::beacon_id::normalize_beacon_id;
 use crate::ble::pathloss::PathLoss;
+use crate::radio_id::normalize_beacon_id;
 use crate::site::{BeaconSpec, Site};
 
 /// The two radios a transmitter can belong to.

@@ -15,9 +15,9 @@ use super::model::{Transmitter, TxKind};
 use super::radio_map::{FallbackParams, Grid, MapEntry, NO_VALUE, RadioMap};
 use super::reference_scans::{ReferenceScan, ReferenceScanConfig, ReferenceScans};
 use crate::Vec2;
-use crate::ble::beacon_id::normalize_beacon_id;
 use crate::ble::pathloss::PathLoss;
 use crate::bounds::{MAX_RADIO_MAP_CELLS, MAX_RADIO_MAP_GRID_CELLS, MAX_RADIO_MAP_TRANSMITTERS};
+use crate::radio_id::normalize_beacon_id;
 use crate::site::Site;
 use crate::{Error, Result};
 

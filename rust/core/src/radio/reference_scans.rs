@@ -357,7 +357,7 @@ impl ReferenceScans {
     }
 
     /// Index of a transmitter by canonical id (beacon ids as
-    /// [`crate::ble::beacon_id::normalize_beacon_id`] gives them, BSSIDs
+    /// [`crate::radio_id::normalize_beacon_id`] gives them, BSSIDs
     /// lower-case).
     pub fn index_of(&self, kind: TxKind, canonical_id: &str) -> Option<u32> {
         self.index.get(kind, canonical_id).map(|j| j as u32)

@@ -13,9 +13,9 @@ use std::collections::BTreeMap;
 
 use super::model::TxKind;
 use crate::Vec2;
-use crate::ble::beacon_id::normalize_beacon_id;
 use crate::ble::calibrate::interpolate;
 use crate::events::{LogEvent, TruthPoint};
+use crate::radio_id::normalize_beacon_id;
 use crate::wifi::FreshResults;
 
 /// What [`survey_samples`] keeps.

@@ -22,7 +22,7 @@ use crate::events::{WifiResult, WifiScan};
 
 pub use config::WifiConfig;
 
-pub use crate::ble::beacon_id::{canonical_bssid, is_bssid, normalize_bssid};
+pub use crate::radio_id::{canonical_bssid, is_bssid, normalize_bssid};
 
 /// A WiFi band from a channel centre frequency.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]

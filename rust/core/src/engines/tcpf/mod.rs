@@ -188,7 +188,7 @@ impl TcpfEngine {
         let mut e = TcpfEngine {
             pdr: Pdr::new(&config.pdr, site.spec.pdr_rotation_rad()),
             pf: ParticleFilter::new(&cfg.filter(), config.seed),
-            floors: FloorTracker::for_site(&config.ekf.floor, &site, start_floor),
+            floors: FloorTracker::new(&config.ekf.floor, &site.floor_heights(), start_floor),
             floor: start_floor,
             input: RadioInput::new(),
             anchors: AnchorState::default(),

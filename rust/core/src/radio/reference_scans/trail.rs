@@ -26,7 +26,7 @@ impl ScanTrail {
         let j = match self.ble_ids.get(raw_id) {
             Some(j) => *j,
             None => {
-                let j = crate::ble::beacon_id::normalize_beacon_id(raw_id)
+                let j = crate::radio_id::normalize_beacon_id(raw_id)
                     .ok()
                     .and_then(|id| scans.index_of(TxKind::Ble, &id));
                 if self.ble_ids.len() < MAX_ID_CACHE {

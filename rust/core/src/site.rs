@@ -659,6 +659,9 @@ pub(crate) mod json_path {
 
     /// Longest object key kept for a path, bytes (a longer key is cut).
     const MAX_KEY_BYTES: usize = 256;
+    /// A cut key is shown as its first this many characters and its whole
+    /// length (within the JNI layer's echo limit, so the length survives).
+    const CUT_KEY_SHOWN_CHARS: usize = 100;
     /// Bytes kept from the error position on (to tell NaN / Infinity).
     const TAIL_BYTES: usize = 11;
 
@@ -702,6 +705,8 @@ pub(crate) mod json_path {
         /// Inside a string: its bytes so far (when it is a key), whether
         /// the next byte is escaped.
         string: Option<(Option<Vec<u8>>, bool)>,
+        /// Characters of the key being read (all of them, kept or not).
+        key_chars: usize,
         /// The structure scan is over.
         done: bool,
         tail: Vec<u8>,
@@ -727,6 +732,7 @@ pub(crate) mod json_path {
                 at: None,
                 stack: Vec::new(),
                 string: None,
+                key_chars: 0,
                 done: false,
                 tail: Vec::new(),
             };
@@ -792,10 +798,17 @@ pub(crate) mod json_path {
                     } else if b == b'"' {
                         let key = key.take();
                         self.string = None;
+                        let n = self.key_chars;
                         if let (Some(k), Some(Frame::Object { key, want_key })) =
                             (key, self.stack.last_mut())
                         {
-                            *key = Some(String::from_utf8_lossy(&k).into_owned());
+                            let text = String::from_utf8_lossy(&k);
+                            *key = Some(if text.chars().count() == n {
+                                text.into_owned()
+                            } else {
+                                let head: String = text.chars().take(CUT_KEY_SHOWN_CHARS).collect();
+                                format!("{head}... ({n} chars)")
+                            });
                             *want_key = false;
                         }
                         if past_end {
@@ -803,10 +816,13 @@ pub(crate) mod json_path {
                         }
                         continue;
                     }
-                    if let Some(k) = key
-                        && k.len() < MAX_KEY_BYTES
-                    {
-                        k.push(b);
+                    if let Some(k) = key {
+                        if b & 0xC0 != 0x80 {
+                            self.key_chars += 1;
+                        }
+                        if k.len() < MAX_KEY_BYTES {
+                            k.push(b);
+                        }
                     }
                     continue;
                 }
@@ -837,6 +853,7 @@ pub(crate) mod json_path {
                             Some(Frame::Object { want_key: true, .. })
                         );
                         self.string = Some((is_key.then(Vec::new), false));
+                        self.key_chars = 0;
                     }
                     _ => {}
                 }

@@ -153,6 +153,22 @@ fn beacon_outside_the_plan_or_inside_a_wall() {
     assert!(msg.contains("inside a Wall"), "{msg}");
 }
 
+/// A key too long to keep is named by its first characters and its whole
+/// length (the JNI layer's message keeps the length: NativeErrorsTest).
+#[test]
+fn a_long_unknown_key_is_named_by_its_start_and_length() {
+    let key = "k".repeat(50_000);
+    let (field, msg) = err(&GOOD.replace(r#""z_m": 2.5"#, &format!(r#""z_m": 2.5, "{key}": 3"#)));
+    assert!(field.starts_with("beacons[0].kkk"), "{field}");
+    assert!(field.ends_with("... (50000 chars)"), "{field}");
+    assert!(field.len() < 200, "{} chars", field.len());
+    assert!(msg.contains("unknown field"), "{msg}");
+    // a key of exactly the kept length is not cut
+    let key = "k".repeat(256);
+    let (field, _) = err(&GOOD.replace(r#""z_m": 2.5"#, &format!(r#""z_m": 2.5, "{key}": 3"#)));
+    assert_eq!(field, format!("beacons[0].{key}"));
+}
+
 #[test]
 fn unknown_and_missing_fields_name_the_path() {
     let (field, msg) = err(&GOOD.replace(r#""z_m": 2.5"#, r#""z_m": 2.5, "colour": 3"#));

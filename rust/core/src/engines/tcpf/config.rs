@@ -319,89 +319,7 @@ impl TcpfConfig {
                 format!("must be in 1..=100000, got {}", self.particle_count),
             ));
         }
-        for (f, v, lo, hi) in [
-            ("step_noise_m", self.step_noise_m, 0.0, 5.0),
-            ("heading_noise_rad", self.heading_noise_rad, 0.0, 3.2),
-            (
-                "heading_offset_sd_rad",
-                self.heading_offset_sd_rad,
-                0.0,
-                1.0,
-            ),
-            (
-                "heading_offset_walk_rad",
-                self.heading_offset_walk_rad,
-                0.0,
-                1.0,
-            ),
-            ("position_noise_m", self.position_noise_m, 0.0, 10.0),
-            (
-                "resample_ess_fraction",
-                self.resample_ess_fraction,
-                0.0,
-                1.0,
-            ),
-            (
-                "recovery_min_wall_kill",
-                self.recovery_min_wall_kill,
-                0.0,
-                1.0,
-            ),
-            (
-                "recovery_radio_alone_margin",
-                self.recovery_radio_alone_margin,
-                0.0,
-                1e6,
-            ),
-            (
-                "recovery_global_radio_alone_margin",
-                self.recovery_global_radio_alone_margin,
-                0.0,
-                1e6,
-            ),
-            ("told_reach_m", self.told_reach_m, 0.0, 1e4),
-            (
-                "told_reach_per_walked",
-                self.told_reach_per_walked,
-                0.0,
-                10.0,
-            ),
-            ("told_reach_weight", self.told_reach_weight, 0.0, 1e6),
-            ("told_reach_scale_lo", self.told_reach_scale_lo, 0.0, 10.0),
-            ("told_reach_scale_hi", self.told_reach_scale_hi, 0.0, 10.0),
-            ("told_reach_turn_rad", self.told_reach_turn_rad, 0.0, 3.2),
-            ("cell_m", self.cell_m, 0.25, 50.0),
-            ("start_wait_ble_s", self.start_wait_ble_s, 0.0, 600.0),
-            ("recovery_alpha_slow", self.recovery_alpha_slow, 0.0, 1.0),
-            ("recovery_alpha_fast", self.recovery_alpha_fast, 0.0, 1.0),
-            (
-                "recovery_max_fraction",
-                self.recovery_max_fraction,
-                0.0,
-                1.0,
-            ),
-            ("accuracy_quantile", self.accuracy_quantile, 0.01, 0.999),
-            ("floor_snap_m", self.floor_snap_m, 0.0, 50.0),
-            ("hold_max_accuracy_m", self.hold_max_accuracy_m, 0.0, 1e6),
-            ("accuracy_scale", self.accuracy_scale, 0.01, 100.0),
-            ("accuracy_min_m", self.accuracy_min_m, 0.0, 1000.0),
-            ("start_accuracy_share", self.start_accuracy_share, 0.0, 10.0),
-            (
-                "start_accuracy_decay_s",
-                self.start_accuracy_decay_s,
-                0.1,
-                3600.0,
-            ),
-            ("wifi_max_age_s", self.wifi_max_age_s, 0.0, 600.0),
-            ("min_rssi_dbm", self.min_rssi_dbm, -200.0, 0.0),
-        ] {
-            if !(v.is_finite() && (lo..=hi).contains(&v)) {
-                return Err(crate::Error::config(
-                    format!("tcpf.{f}"),
-                    format!("must be in [{lo}, {hi}], got {v}"),
-                ));
-            }
-        }
+        self.check_ranges()?;
         if self.recovery_alpha_slow > self.recovery_alpha_fast {
             return Err(crate::Error::config(
                 "tcpf.recovery_alpha_slow",
@@ -425,6 +343,54 @@ impl TcpfConfig {
         self.integrity.validate()?;
         self.adaptive_count.validate("tcpf.adaptive_count")?;
         self.offset.validate()
+    }
+
+    /// Checks the real-valued fields' ranges; errors name `tcpf.<field>`.
+    fn check_ranges(&self) -> Result<()> {
+        // field lo hi: each must be finite and in [lo, hi]
+        macro_rules! ranges {
+            ($($f:ident $lo:literal $hi:literal,)*) => { $(
+                let v = self.$f;
+                if !(v.is_finite() && ($lo..=$hi).contains(&v)) {
+                    return Err(crate::Error::config(
+                        concat!("tcpf.", stringify!($f)),
+                        format!("must be in [{}, {}], got {v}", $lo, $hi),
+                    ));
+                }
+            )* };
+        }
+        ranges! {
+            step_noise_m 0.0 5.0,
+            heading_noise_rad 0.0 3.2,
+            heading_offset_sd_rad 0.0 1.0,
+            heading_offset_walk_rad 0.0 1.0,
+            position_noise_m 0.0 10.0,
+            resample_ess_fraction 0.0 1.0,
+            recovery_min_wall_kill 0.0 1.0,
+            recovery_radio_alone_margin 0.0 1e6,
+            recovery_global_radio_alone_margin 0.0 1e6,
+            told_reach_m 0.0 1e4,
+            told_reach_per_walked 0.0 10.0,
+            told_reach_weight 0.0 1e6,
+            told_reach_scale_lo 0.0 10.0,
+            told_reach_scale_hi 0.0 10.0,
+            told_reach_turn_rad 0.0 3.2,
+            cell_m 0.25 50.0,
+            start_wait_ble_s 0.0 600.0,
+            recovery_alpha_slow 0.0 1.0,
+            recovery_alpha_fast 0.0 1.0,
+            recovery_max_fraction 0.0 1.0,
+            accuracy_quantile 0.01 0.999,
+            floor_snap_m 0.0 50.0,
+            hold_max_accuracy_m 0.0 1e6,
+            accuracy_scale 0.01 100.0,
+            accuracy_min_m 0.0 1000.0,
+            start_accuracy_share 0.0 10.0,
+            start_accuracy_decay_s 0.1 3600.0,
+            wifi_max_age_s 0.0 600.0,
+            min_rssi_dbm -200.0 0.0,
+        }
+        Ok(())
     }
 
     /// The particle filter's settings (the shared [`crate::fusion::ParticleFilter`]).

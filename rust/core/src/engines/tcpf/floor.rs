@@ -49,6 +49,21 @@ impl TcpfEngine {
         if self.site.spec.floors.len() < 2 {
             return;
         }
+        let (target, from_barometer) = self.floor_target(t_ns, meas, anchors);
+        let Some(f) = target.filter(|f| *f != self.floor && self.site.floor(*f).is_some()) else {
+            return;
+        };
+        self.change_floor(t_ns, meas, f, from_barometer);
+    }
+
+    /// The floor this update's votes (anchors or strongest beacons) and the
+    /// barometer ask for, and whether it is the barometer's.
+    fn floor_target(
+        &mut self,
+        t_ns: i64,
+        meas: &[Measurement],
+        anchors: &[Anchor],
+    ) -> (Option<i32>, bool) {
         let share = self.cfg.anchors.floor_vote_share;
         let vote = if share > 0.0 && !anchors.is_empty() {
             candidate_fix(anchors)
@@ -107,9 +122,11 @@ impl TcpfEngine {
                 (None, _) => None,
             }
         };
-        let Some(f) = target.filter(|f| *f != self.floor && self.site.floor(*f).is_some()) else {
-            return;
-        };
+        (target, from_barometer)
+    }
+
+    /// Moves the cloud to floor `f`.
+    fn change_floor(&mut self, t_ns: i64, meas: &[Measurement], f: i32, from_barometer: bool) {
         // floors share the x, y frame: the walker changes floor where the
         // track is (stairs, lift), or at the nearest walkable point within
         // `floor_snap_m` (a stairwell drawn as a wall); with none there, a

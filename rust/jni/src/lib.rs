@@ -177,11 +177,25 @@ fn direct_bytes<'b>(env: &Env<'_>, buf: &'b JByteBuffer<'_>) -> Result<&'b [u8],
     Ok(unsafe { std::slice::from_raw_parts(ptr.cast_const(), len) })
 }
 
+/// Whether `name` goes into a JNI symbol as is: ASCII letters and digits
+/// only (`_` and non-ASCII would need JNI's `_1` / `_0xxxx` escapes).
+const fn is_plain_jni_name(name: &str) -> bool {
+    let b = name.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if !b[i].is_ascii_alphanumeric() {
+            return false;
+        }
+        i += 1;
+    }
+    true
+}
+
 /// Defines the JNI entry points of the Kotlin object `io.fpbp.$class`, each
 /// as `fn name(env, arg: Type, ...) -> Ret { body }`. Per entry point it
 /// writes the common opening once for all: the exported symbol
-/// `Java_io_fpbp_<class>_<name>` (names must not contain `_`, which JNI
-/// would mangle), the `(JNIEnv*, jclass)` parameters, and the call of the
+/// `Java_io_fpbp_<class>_<name>` (checked at compile time to need no JNI
+/// escapes), the `(JNIEnv*, jclass)` parameters, and the call of the
 /// body inside [`entry`] with `"name"` as the method in messages (logger
 /// set-up and body under the panic guard, `BridgeError` -> the exception of
 /// the error table, error.rs). `env` (or `_`) binds the `&mut Env` of the
@@ -189,7 +203,7 @@ fn direct_bytes<'b>(env: &Env<'_>, buf: &'b JByteBuffer<'_>) -> Result<&'b [u8],
 /// the Java side gets the exception and the native method `Ret::default()`.
 ///
 /// Handles are looked up inside the body ([`with_session`], [`snapshot`],
-/// `SESSIONS`), where each entry point does it now: some check their
+/// `SESSIONS`), at the point each entry point needs it: some check their
 /// arguments first, so which exception wins stays as documented.
 macro_rules! jni_fns {
     (
@@ -198,7 +212,10 @@ macro_rules! jni_fns {
             $(#[$attr:meta])*
             fn $name:ident($env:pat $(, $arg:ident: $ty:ty)* $(,)?) $(-> $ret:ty)? $body:block
         )*
-    ) => {$(
+    ) => {
+        const _: () = assert!(is_plain_jni_name(stringify!($class)));
+        $(
+        const _: () = assert!(is_plain_jni_name(stringify!($name)));
         $(#[$attr])*
         #[unsafe(export_name = concat!("Java_io_fpbp_", stringify!($class), "_", stringify!($name)))]
         #[allow(clippy::too_many_arguments)] // the Java signature decides
@@ -209,7 +226,8 @@ macro_rules! jni_fns {
         ) $(-> $ret)? {
             entry(&mut env, stringify!($name), |$env| $body)
         }
-    )*};
+        )*
+    };
 }
 
 jni_fns! {

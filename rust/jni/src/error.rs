@@ -1,4 +1,4 @@
-//! Errors of the bridge and the one policy that turns them (and panics) into
+//! Errors of the bridge and the one table that turns them (and panics) into
 //! Java exceptions.
 //!
 //! | Rust                          | Java                                   |
@@ -7,13 +7,15 @@
 //! | stale or stopped handle       | `java.lang.IllegalStateException`      |
 //! | engine refuses the operation  | `java.lang.UnsupportedOperationException` |
 //! | panic, poisoned lock, JNI bug | `io.fpbp.FpbpNativeException` (a `RuntimeException`) |
+//!
+//! In code that table is the section "The exception table" below: which
+//! [`BridgeError`] each `fpbp_core::Error` variant becomes, and the Java
+//! class of each `BridgeError` (the only place a class name is spelled; a
+//! test checks it).
 
 use jni::Env;
 use jni::errors::ErrorPolicy;
 use jni::strings::JNIString;
-
-/// Java class thrown for internal errors (defined in the Kotlin library).
-pub const INTERNAL_EXCEPTION_CLASS: &str = "io/fpbp/FpbpNativeException";
 
 /// What went wrong in a native call, by the Java exception it becomes.
 #[derive(Debug, thiserror::Error)]
@@ -35,9 +37,26 @@ pub enum BridgeError {
     Jni(#[from] jni::errors::Error),
 }
 
+// ---- The exception table ----
+
 impl From<fpbp_core::Error> for BridgeError {
+    /// One row per core error variant, no `_` arm: a new variant does not
+    /// compile until it is given its exception here. The message is the
+    /// core error's text.
     fn from(e: fpbp_core::Error) -> Self {
-        BridgeError::IllegalArgument(e.to_string())
+        use fpbp_core::Error as E;
+        let kind: fn(String) -> BridgeError = match &e {
+            E::Site { .. } => BridgeError::IllegalArgument,
+            E::Plan { .. } => BridgeError::IllegalArgument,
+            E::Config { .. } => BridgeError::IllegalArgument,
+            E::UnknownEngine(..) => BridgeError::IllegalArgument,
+            E::Input(_) => BridgeError::IllegalArgument,
+            E::Unsupported(_) => BridgeError::Unsupported,
+            E::Bundle { .. } => BridgeError::IllegalArgument,
+            E::Calibration(_) => BridgeError::IllegalArgument,
+            E::Io { .. } => BridgeError::IllegalArgument,
+        };
+        kind(e.to_string())
     }
 }
 
@@ -48,10 +67,16 @@ impl BridgeError {
             BridgeError::IllegalArgument(_) => "java/lang/IllegalArgumentException",
             BridgeError::IllegalState(_) => "java/lang/IllegalStateException",
             BridgeError::Unsupported(_) => "java/lang/UnsupportedOperationException",
-            BridgeError::Internal(_) | BridgeError::Jni(_) => INTERNAL_EXCEPTION_CLASS,
+            BridgeError::Internal(_) | BridgeError::Jni(_) => "io/fpbp/FpbpNativeException",
         }
     }
 }
+
+/// Thrown instead when the class of [`BridgeError::java_class`] cannot be
+/// found (e.g. the Kotlin library is not on the class path).
+pub const FALLBACK_CLASS: &str = "java/lang/RuntimeException";
+
+// ---- end of the exception table ----
 
 /// Longest run of caller input an exception message repeats, chars.
 pub const MAX_ECHO_CHARS: usize = 200;
@@ -115,8 +140,8 @@ pub fn panic_message(payload: &(dyn std::any::Any + Send)) -> String {
     }
 }
 
-/// Throws `class` with `msg`; falls back to `java.lang.RuntimeException` when
-/// the class cannot be found (e.g. the Kotlin library is not on the class path).
+/// Throws `class` with `msg`; falls back to [`FALLBACK_CLASS`] when the class
+/// cannot be found.
 /// jni 0.22's `throw_new` reports success as `Err(JavaException)` (the new
 /// exception is pending), so that error is not a failure here.
 fn throw(env: &mut Env<'_>, class: &str, msg: &str) -> jni::errors::Result<()> {
@@ -129,7 +154,7 @@ fn throw(env: &mut Env<'_>, class: &str, msg: &str) -> jni::errors::Result<()> {
         Ok(()) | Err(JavaException) if env.exception_check() => Ok(()),
         _ => {
             env.exception_clear();
-            match env.throw_new(JNIString::from("java/lang/RuntimeException"), &jmsg) {
+            match env.throw_new(JNIString::from(FALLBACK_CLASS), &jmsg) {
                 Ok(()) | Err(JavaException) => Ok(()),
                 Err(e) => Err(e),
             }
@@ -137,9 +162,24 @@ fn throw(env: &mut Env<'_>, class: &str, msg: &str) -> jni::errors::Result<()> {
     }
 }
 
+/// Logs (at `level`) and throws `err` as the exception of
+/// [`BridgeError::java_class`], its message `fpbp <method>: <err>` with
+/// echoes clipped ([`clip_echoes`]).
+fn throw_error(
+    env: &mut Env<'_>,
+    method: &str,
+    err: &BridgeError,
+    level: log::Level,
+) -> jni::errors::Result<()> {
+    let msg = clip_echoes(&format!("fpbp {method}: {err}"));
+    log::log!(level, "{msg}");
+    throw(env, err.java_class(), &msg)
+}
+
 /// The error policy of every entry point: errors become the exception of
-/// [`BridgeError::java_class`], panics become `FpbpNativeException`, and the
-/// native method returns its type's default (0, null).
+/// [`BridgeError::java_class`], panics an [`BridgeError::Internal`] one
+/// (`FpbpNativeException`), and the native method returns its type's
+/// default (0, false, null).
 #[derive(Debug, Default)]
 pub struct ThrowJava;
 
@@ -154,9 +194,7 @@ impl<T: Default> ErrorPolicy<T, BridgeError> for ThrowJava {
         if let BridgeError::Jni(jni::errors::Error::JavaException) = err {
             return Ok(T::default()); // pending Java exception propagates as is
         }
-        let msg = clip_echoes(&format!("fpbp {method}: {err}"));
-        log::debug!("{msg}");
-        throw(env, err.java_class(), &msg)?;
+        throw_error(env, method, &err, log::Level::Debug)?;
         Ok(T::default())
     }
 
@@ -165,12 +203,11 @@ impl<T: Default> ErrorPolicy<T, BridgeError> for ThrowJava {
         method: &mut &'static str,
         payload: Box<dyn std::any::Any + Send + 'static>,
     ) -> jni::errors::Result<T> {
-        let msg = clip_echoes(&format!(
-            "fpbp {method}: internal panic: {}",
+        let err = BridgeError::Internal(format!(
+            "internal panic: {}",
             panic_message(payload.as_ref())
         ));
-        log::error!("{msg}");
-        throw(env, INTERNAL_EXCEPTION_CLASS, &msg)?;
+        throw_error(env, method, &err, log::Level::Error)?;
         Ok(T::default())
     }
 }
@@ -203,5 +240,148 @@ mod tests {
             m.chars().count() < MAX_MESSAGE_CHARS + 40 && m.ends_with("(message cut, 10000 chars)"),
             "{m}"
         );
+    }
+
+    /// Index of `e`'s variant in `fpbp_core::Error`. No `_` arm: a new
+    /// variant does not compile until it is counted here (and then
+    /// [`CORE_VARIANTS`] and the samples below must grow with it).
+    fn core_variant(e: &fpbp_core::Error) -> usize {
+        use fpbp_core::Error as E;
+        match e {
+            E::Site { .. } => 0,
+            E::Plan { .. } => 1,
+            E::Config { .. } => 2,
+            E::UnknownEngine(..) => 3,
+            E::Input(_) => 4,
+            E::Unsupported(_) => 5,
+            E::Bundle { .. } => 6,
+            E::Calibration(_) => 7,
+            E::Io { .. } => 8,
+        }
+    }
+
+    const CORE_VARIANTS: usize = 9;
+
+    #[test]
+    fn every_core_error_variant_maps_to_its_java_class() {
+        use fpbp_core::Error as E;
+        let s = |x: &str| x.to_string();
+        let illegal_argument = "java/lang/IllegalArgumentException";
+        let samples = [
+            (
+                E::Site {
+                    file: s("site.json"),
+                    field: s("floors"),
+                    msg: s("empty"),
+                },
+                illegal_argument,
+            ),
+            (
+                E::Plan {
+                    file: s("plan.png"),
+                    msg: s("not a PNG"),
+                },
+                illegal_argument,
+            ),
+            (
+                E::Config {
+                    field: s("tasks.radio_period_ms"),
+                    msg: s("0"),
+                },
+                illegal_argument,
+            ),
+            (E::UnknownEngine(s("x"), s("fpbp, tcpf")), illegal_argument),
+            (E::Input(s("arity")), illegal_argument),
+            (
+                E::Unsupported(s("no reset")),
+                "java/lang/UnsupportedOperationException",
+            ),
+            (
+                E::Bundle {
+                    at: s("header"),
+                    msg: s("magic"),
+                },
+                illegal_argument,
+            ),
+            (E::Calibration(s("too few")), illegal_argument),
+            (
+                E::Io {
+                    file: s("site.json"),
+                    source: std::io::Error::other("gone"),
+                },
+                illegal_argument,
+            ),
+        ];
+        let mut seen = [false; CORE_VARIANTS];
+        for (e, class) in samples {
+            seen[core_variant(&e)] = true;
+            let text = e.to_string();
+            let b = BridgeError::from(e);
+            assert_eq!(b.java_class(), class, "{text}");
+            assert_eq!(b.to_string(), text, "the message is the core error's text");
+        }
+        assert!(
+            seen.iter().all(|&s| s),
+            "a core variant without a sample: {seen:?}"
+        );
+    }
+
+    #[test]
+    fn bridge_errors_map_to_their_java_class() {
+        let m = || "m".to_string();
+        for (e, class) in [
+            (
+                BridgeError::IllegalArgument(m()),
+                "java/lang/IllegalArgumentException",
+            ),
+            (
+                BridgeError::IllegalState(m()),
+                "java/lang/IllegalStateException",
+            ),
+            (
+                BridgeError::Unsupported(m()),
+                "java/lang/UnsupportedOperationException",
+            ),
+            (BridgeError::Internal(m()), "io/fpbp/FpbpNativeException"),
+            (
+                BridgeError::Jni(jni::errors::Error::NullPtr("x")),
+                "io/fpbp/FpbpNativeException",
+            ),
+        ] {
+            assert_eq!(e.java_class(), class);
+        }
+        assert_eq!(FALLBACK_CLASS, "java/lang/RuntimeException");
+    }
+
+    /// The exception table is the only place a Java class name is spelled:
+    /// no other source file of the bridge names one, and error.rs (its code,
+    /// not these tests) names each of the five once.
+    #[test]
+    fn class_names_appear_only_in_the_exception_table() {
+        let class_literal =
+            |src: &str| src.matches("\"java/").count() + src.matches("\"io/fpbp/").count();
+        let others = [
+            ("lib.rs", include_str!("lib.rs")),
+            ("live.rs", include_str!("live.rs")),
+            ("logging.rs", include_str!("logging.rs")),
+            ("registry.rs", include_str!("registry.rs")),
+            ("selftest.rs", include_str!("selftest.rs")),
+            ("session.rs", include_str!("session.rs")),
+            ("site_loader.rs", include_str!("site_loader.rs")),
+        ];
+        for (name, src) in others {
+            assert_eq!(class_literal(src), 0, "{name} spells a Java class name");
+        }
+        let this = include_str!("error.rs");
+        let code = &this[..this.find("#[cfg(test)]").expect("test module")];
+        let table_start = code
+            .find("// ---- The exception table ----")
+            .expect("table start");
+        let table_end = code
+            .find("// ---- end of the exception table ----")
+            .expect("table end");
+        assert_eq!(class_literal(&code[..table_start]), 0);
+        assert_eq!(class_literal(&code[table_start..table_end]), 5);
+        assert_eq!(class_literal(&code[table_end..]), 0);
     }
 }

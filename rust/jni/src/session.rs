@@ -237,12 +237,10 @@ impl Session {
     }
 
     /// Moves the engine to `at` now. An engine that refuses (the core's
-    /// default) gives `Unsupported`, a bad point `IllegalArgument`.
+    /// default, `Error::Unsupported`) gives `Unsupported`, a bad point
+    /// `IllegalArgument` (the exception table, error.rs).
     pub fn set_position(&mut self, t_ns: i64, at: InitialPosition) -> Result<(), BridgeError> {
-        self.engine.set_position(t_ns, at).map_err(|e| match e {
-            fpbp_core::Error::Unsupported(m) => BridgeError::Unsupported(m),
-            other => other.into(),
-        })
+        Ok(self.engine.set_position(t_ns, at)?)
     }
 
     /// Hands one WiFi scan to the engine: the entries [`wifi_results`]

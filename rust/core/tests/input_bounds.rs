@@ -15,9 +15,7 @@
 //! and a fixed case budget, so it runs the same cases, in bounded time, on
 //! every `cargo test`.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Duration;
 
 use fpbp_core::engine::InitialPosition;
@@ -25,42 +23,8 @@ use fpbp_core::engines::{EngineConfig, build_engine};
 use fpbp_core::site::{Site, SiteSpec};
 use rand::{RngExt, SeedableRng};
 
-struct Counting;
-
-static LIVE: AtomicUsize = AtomicUsize::new(0);
-static PEAK: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
-        let p = unsafe { System.alloc(l) };
-        if !p.is_null() {
-            let now = LIVE.fetch_add(l.size(), Ordering::Relaxed) + l.size();
-            PEAK.fetch_max(now, Ordering::Relaxed);
-        }
-        p
-    }
-    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
-        unsafe { System.dealloc(p, l) };
-        LIVE.fetch_sub(l.size(), Ordering::Relaxed);
-    }
-    unsafe fn realloc(&self, p: *mut u8, l: Layout, new: usize) -> *mut u8 {
-        let q = unsafe { System.realloc(p, l, new) };
-        if !q.is_null() {
-            if new > l.size() {
-                let now = LIVE.fetch_add(new - l.size(), Ordering::Relaxed) + new - l.size();
-                PEAK.fetch_max(now, Ordering::Relaxed);
-            } else {
-                LIVE.fetch_sub(l.size() - new, Ordering::Relaxed);
-            }
-        }
-        q
-    }
-}
-
-#[global_allocator]
-static ALLOC: Counting = Counting;
-
-static SERIAL: Mutex<()> = Mutex::new(());
+mod counting_alloc;
+use counting_alloc::SERIAL;
 
 /// A case that has not returned after this long counts as a hang.
 const HANG_S: u64 = 60;
@@ -69,8 +33,7 @@ const REPRODUCER_BUDGET: usize = 16 << 20;
 
 /// Runs `f` on a thread; returns its result and the peak of extra live bytes.
 fn measured<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> (T, usize) {
-    let base = LIVE.load(Ordering::Relaxed);
-    PEAK.store(base, Ordering::Relaxed);
+    let base = counting_alloc::start();
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let _ = tx.send(f());
@@ -78,7 +41,7 @@ fn measured<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> (T, us
     let out = rx
         .recv_timeout(Duration::from_secs(HANG_S))
         .expect("case did not return: a hang");
-    let peak = PEAK.load(Ordering::Relaxed).saturating_sub(base);
+    let peak = counting_alloc::extra_peak(base);
     (out, peak)
 }
 

@@ -229,11 +229,6 @@ impl RadioIntegrity {
         };
     }
 
-    /// Whether the fit sets the trust.
-    pub fn fit_is_active(&self) -> bool {
-        self.fit_active
-    }
-
     /// Whether the fit is read at all (for the trust or the radius).
     pub fn fit_is_watched(&self, cfg: &IntegrityConfig) -> bool {
         self.fit_active || cfg.fit_accuracy_slope(self.path_loss) > 0.0

@@ -33,13 +33,11 @@ pub struct TcpfConfig {
     pub cell_m: f64,
     /// The global start needs this many transmitters in one update.
     pub start_min_transmitters: usize,
-    /// On a site with beacons on several floors, the start waits up to
-    /// this long (after the first radio update) for a beacon to pick the
-    /// floor, s.
-    pub start_wait_ble_s: f64,
-    /// With a radio map (learned per floor), the start floor is the floor
-    /// with the most likelihood mass instead of the strongest beacons'.
-    pub start_floor_from_map: bool,
+    /// The global start waits up to this long (after the first radio
+    /// update) for what can place it: with reference scans, a window they
+    /// recognise (anchors); on a site with beacons on several floors, a
+    /// beacon to pick the floor. s.
+    pub start_wait_s: f64,
     /// Augmented MCL: slow and fast averages of the per-transmitter
     /// likelihood, and the largest fraction re-seeded per update.
     pub recovery_alpha_slow: f64,
@@ -91,10 +89,6 @@ pub struct TcpfConfig {
     /// A floor change puts the cloud at the track's point on the new
     /// floor, or at the nearest walkable point within this many metres.
     pub floor_snap_m: f64,
-    /// With no walkable point there, a change the barometer alone asks for
-    /// is not made (the walker passes through a place the plan lacks);
-    /// false: a global start on the new floor.
-    pub floor_keep_off_map: bool,
     /// The published point is held (not moved through a wall) for at most
     /// this many fusion runs before it follows the cloud anyway.
     pub max_hold_runs: u32,
@@ -159,8 +153,6 @@ pub struct AnchorConfig {
     /// Exponent of the mixture in each radio update (0 = start and
     /// re-seeding only).
     pub weight: f64,
-    /// The start floor is the anchors' heaviest floor.
-    pub start_floor: bool,
     /// Floor votes after the start come from the anchors (their heaviest
     /// floor when it holds at least this share of their weight; 0 = the
     /// strongest beacons vote, as without anchors).
@@ -169,9 +161,6 @@ pub struct AnchorConfig {
     /// floor move the track there even when the barometer saw no change
     /// (a wrong start floor is otherwise kept for good; 0 = never).
     pub floor_force_votes: u32,
-    /// With reference scans, the start waits up to this long (after the
-    /// first radio update) for a query with candidates, s.
-    pub start_wait_s: f64,
     /// Far from the survey: when the closest reference scan is more than
     /// this (RMS dB) from the phone's window, or none shares a heard
     /// transmitter, the cloud is not re-seeded from the likelihood surface
@@ -209,10 +198,8 @@ impl Default for AnchorConfig {
             sigma_m: 8.0,
             floor: 0.05,
             weight: 3.0,
-            start_floor: true,
             floor_vote_share: 0.5,
             floor_force_votes: 5,
-            start_wait_s: 5.0,
             far_db: 12.0,
             far_survey_penalty: 3.0,
             far_survey_sigma_m: 4.0,
@@ -239,7 +226,6 @@ impl AnchorConfig {
             ("sigma_m", self.sigma_m, 0.1, 100.0),
             ("floor", self.floor, 1e-9, 10.0),
             ("weight", self.weight, 0.0, 100.0),
-            ("start_wait_s", self.start_wait_s, 0.0, 600.0),
             ("far_db", self.far_db, 0.0, 1000.0),
             ("far_survey_penalty", self.far_survey_penalty, 0.0, 100.0),
             ("far_survey_sigma_m", self.far_survey_sigma_m, 0.5, 50.0),
@@ -274,8 +260,7 @@ impl Default for TcpfConfig {
             resample_ess_fraction: 0.5,
             cell_m: 2.0,
             start_min_transmitters: 1,
-            start_wait_ble_s: 5.0,
-            start_floor_from_map: true,
+            start_wait_s: 5.0,
             recovery_alpha_slow: 0.05,
             recovery_alpha_fast: 0.5,
             recovery_max_fraction: 0.1,
@@ -291,7 +276,6 @@ impl Default for TcpfConfig {
             told_reach_turn_rad: 0.2,
             floor_switch_votes: 3,
             floor_snap_m: 5.0,
-            floor_keep_off_map: true,
             max_hold_runs: 5,
             hold_max_accuracy_m: 24.0,
             accuracy_quantile: 0.68,
@@ -376,7 +360,7 @@ impl TcpfConfig {
             told_reach_scale_hi 0.0 10.0,
             told_reach_turn_rad 0.0 3.2,
             cell_m 0.25 50.0,
-            start_wait_ble_s 0.0 600.0,
+            start_wait_s 0.0 600.0,
             recovery_alpha_slow 0.0 1.0,
             recovery_alpha_fast 0.0 1.0,
             recovery_max_fraction 0.0 1.0,

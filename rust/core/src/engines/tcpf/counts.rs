@@ -24,7 +24,7 @@ pub struct TcpfCounts {
     pub floor_changes: u64,
     /// Barometer floor changes not made: the new floor's plan has no
     /// walkable point within `floor_snap_m` of the track (a stairwell the
-    /// plan lacks, passed through; `floor_keep_off_map`).
+    /// plan lacks, passed through).
     pub floor_changes_off_map: u64,
     /// Anchor queries that gave candidates, and particles re-seeded
     /// around them.

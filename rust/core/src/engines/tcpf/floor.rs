@@ -130,15 +130,15 @@ impl TcpfEngine {
         // floors share the x, y frame: the walker changes floor where the
         // track is (stairs, lift), or at the nearest walkable point within
         // `floor_snap_m` (a stairwell drawn as a wall); with none there, a
-        // change the barometer alone asks for is not made when
-        // `floor_keep_off_map` (the plan lacks the place the walker passes
-        // through: a global start on that floor would put the track
-        // wherever its plan has room), otherwise a global start there
+        // change the barometer alone asks for is not made (the plan lacks
+        // the place the walker passes through: a global start on that
+        // floor would put the track wherever its plan has room); a change
+        // the radio asks for is a global start there
         let at = self.publisher.published.or_else(|| self.pf.mean());
         let site = Arc::clone(&self.site);
         let Some(m) = site.floor(f) else { return };
         let snapped = at.and_then(|p| m.nearest_walkable_within(p, self.cfg.floor_snap_m));
-        if snapped.is_none() && at.is_some() && from_barometer && self.cfg.floor_keep_off_map {
+        if snapped.is_none() && at.is_some() && from_barometer {
             self.counts.floor_changes_off_map += 1;
             return;
         }

@@ -257,31 +257,26 @@ impl TcpfEngine {
                 // the most likelihood mass; the barometer gives floor
                 // changes, not the floor itself, until the start anchors it
                 let vote = self.radio_floor_vote(&meas);
-                let by_anchors = if self.cfg.anchors.start_floor {
-                    candidate_fix(&anchors).map(|fix| fix.floor)
-                } else {
-                    None
-                };
+                let by_anchors = candidate_fix(&anchors).map(|fix| fix.floor);
                 let floor = if by_anchors.is_some() {
                     by_anchors
-                } else if self.cfg.start_floor_from_map && self.model.learned_per_floor() {
+                } else if self.model.learned_per_floor() {
                     // a radio map's per-floor likelihood mass decides
                     None
                 } else {
                     vote
                 };
                 let first = *self.start.first_radio_t_ns.get_or_insert(t_ns);
-                let anchor_wait_ns = (self.cfg.anchors.start_wait_s * 1e9) as i64;
+                let wait_ns = (self.cfg.start_wait_s * 1e9) as i64;
                 if anchors.is_empty()
                     && self.cfg.anchors.k > 0
                     && self.model.reference_scans().is_some()
-                    && t_ns - first < anchor_wait_ns
+                    && t_ns - first < wait_ns
                 {
                     // the survey's scans can place the start: wait a
                     // little for a window they recognise
                     return;
                 }
-                let wait_ns = (self.cfg.start_wait_ble_s * 1e9) as i64;
                 if by_anchors.is_none()
                     && vote.is_none()
                     && self.start.beacon_floors > 1

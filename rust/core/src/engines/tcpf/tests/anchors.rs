@@ -56,7 +56,7 @@ fn a_told_floor_holds_and_the_own_start_takes_the_anchors_floor() {
 /// Floor 1 of a two-floor site is walkable only east of x = 16 m; the
 /// walker climbs 5 m (barometer) 10 s into the walk north along x = 7 m.
 /// The plan has no floor-1 place within `floor_snap_m` of the track: the
-/// change is not made (`floor_keep_off_map`) and the track stays on its
+/// change is not made and the track stays on its
 /// line, where a global start on floor 1 would move it 9+ m east.
 #[test]
 fn a_floor_change_off_the_new_floors_plan_is_not_made() {
@@ -87,25 +87,18 @@ fn a_floor_change_off_the_new_floors_plan_is_not_made() {
         floor: 0,
         heading_rad: None,
     });
-    let run_with = |keep: bool| {
-        let mut cfg = EngineConfig::default();
-        cfg.tcpf.floor_keep_off_map = keep;
+    let run = || {
+        let cfg = EngineConfig::default();
         let mut e = TcpfEngine::new(site.clone(), &cfg, init).unwrap();
         let out = replay(&mut e, ev.iter().cloned());
         (out, e.counts.floor_changes, e.counts.floor_changes_off_map)
     };
-    let (kept, changes, refused) = run_with(true);
+    let (kept, changes, refused) = run();
     assert_eq!(changes, 0);
     assert!(refused > 0);
     assert!(kept.track.iter().all(|p| p.floor == 0));
     let max_x = kept.track.iter().map(|p| p.x_m).fold(f64::MIN, f64::max);
     assert!(max_x < 10.0, "{max_x:.1} m");
-    // the old way: a global start on floor 1, east of x = 16 m
-    let (moved, changes, refused) = run_with(false);
-    assert!(changes > 0 && refused == 0, "{changes} {refused}");
-    let last = moved.track.last().unwrap();
-    assert_eq!(last.floor, 1);
-    assert!(last.x_m >= 16.0, "{:.1} m", last.x_m);
 }
 
 #[test]

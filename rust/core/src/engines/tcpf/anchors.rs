@@ -141,12 +141,10 @@ impl TcpfEngine {
             let mix = &mut self.anchors.mix;
             mix.clear();
             anchor_mix_many(anchors, floor, self.pf.particles(), ac.sigma_m, mix);
-            {
-                let norm = (ac.floor + 1.0).ln();
-                let weight = ac.weight * trust;
-                for (u, a) in log_l.iter_mut().zip(mix.iter()) {
-                    *u += weight * (fast_ln(ac.floor + a) - norm);
-                }
+            let norm = (ac.floor + 1.0).ln();
+            let weight = ac.weight * trust;
+            for (u, a) in log_l.iter_mut().zip(mix.iter()) {
+                *u += weight * (fast_ln(ac.floor + a) - norm);
             }
         }
     }

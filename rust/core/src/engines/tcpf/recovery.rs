@@ -105,7 +105,7 @@ impl TcpfEngine {
             self.cfg.recovery_global_radio_alone_margin
         };
         let needed = if reseed > 0.0 && walls_agree {
-            alone.min(0.0)
+            0.0
         } else {
             alone
         };
@@ -119,13 +119,12 @@ impl TcpfEngine {
             && let best_ll = surf.lse - surf.w.iter().sum::<f64>().ln()
             && let Some(kept_ln) = self.keep_within_told_reach(floor, &mut surf)
             && let gap = best_ll + kept_ln - cloud_ll
-            && let Some(fraction) = if gap > alone {
+            && let Some(reseed) = if gap > alone {
                 Some(self.cfg.recovery_max_fraction)
             } else {
                 (reseed > 0.0 && gap > 0.0 && walls_agree).then_some(reseed)
             }
         {
-            let reseed = fraction;
             self.resample_now();
             let site = Arc::clone(&self.site);
             let map = site.floor(floor);
